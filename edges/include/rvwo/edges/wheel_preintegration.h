@@ -1,0 +1,131 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// Wheel-odometry preintegration on SE(2) (RVWO paper eqs. 11 to 13; docs/maths.md section 4).
+//
+// Readings give body-frame increments (dp_k, dphi_k). Between two frames they are accumulated
+//
+//   Dphi_{k+1} = Dphi_k + dphi_k,        Dp_{k+1} = Dp_k + R(Dphi_k) dp_k           (eq. 11)
+//
+// and the error of (Dp, Dphi), additive in the frame of the first pose, is propagated with the
+// step Jacobians (eqs. 12, 13; the paper's A is garbled in print, this is the derived one):
+//
+//   A_k = [[I2, J R(Dphi_k) dp_k], [0, 1]],   B_k = [[R(Dphi_k), 0], [0, 1]]
+//   Sigma_{k+1} = A_k Sigma_k A_k^T + B_k Sigma_n,k B_k^T
+//
+// Sigma_n,k scales with the motion the reading covers (distance, rotation, time), never with the
+// number of readings, so the result does not depend on the odometry rate (WheelNoise).
+#pragma once
+
+#include <Eigen/Core>
+#include <deque>
+#include <string>
+
+#include "rvwo/edges/se2.h"
+
+namespace rvwo {
+
+// Noise of one odometry reading, as densities over the motion it covers. Settings keys in [].
+struct WheelNoise {
+  // Robot-odometry pose input: random-walk densities.
+  double sigma_x = 0.02;      // m/sqrt(m): along-track position, per sqrt(metre travelled) [Odometry.NoiseX]
+  double sigma_y = 0.01;      // m/sqrt(m): cross-track (skid), per sqrt(metre travelled) [Odometry.NoiseY]
+  double sigma_phi = 0.02;    // rad/sqrt(rad): heading, per sqrt(radian turned) [Odometry.NoiseRot]
+  double sigma_phi_s = 0.01;  // rad/sqrt(m): heading, per sqrt(metre travelled) [Odometry.NoiseRotPerMetre]
+  // Wheel-encoder input: each wheel's angle, per sqrt(radian of wheel rotation); the increment's
+  // covariance follows from the differential-drive model's Jacobian. sigma_y is added as skid.
+  double sigma_wheel = 0.01;  // rad/sqrt(rad) [Odometry.NoiseWheel]
+  // Floor, so that a robot at rest keeps a finite information: per sqrt(second).
+  double floor_p = 1e-3;    // m/sqrt(s) [Odometry.NoiseFloorP]
+  double floor_phi = 1e-3;  // rad/sqrt(s) [Odometry.NoiseFloorRot]
+
+  // Throws std::invalid_argument naming the key of a negative or non-finite density.
+  void validate() const;
+  // Covariance of a pose-odometry increment covering ds metres, dphi radians in dt seconds.
+  Eigen::Matrix3d poseReadingCovariance(double ds, double dphi, double dt) const;
+};
+
+// Differential drive: wheel radii and track width, metres.
+struct DiffDriveParams {
+  double radius_left = 0.1;
+  double radius_right = 0.1;
+  double track = 0.5;
+  void validate() const;
+};
+
+// The preintegrated motion of the body between two times.
+struct WheelDelta {
+  double t0 = 0.0, t1 = 0.0;                       // s
+  Eigen::Vector2d dp = Eigen::Vector2d::Zero();    // m, in the body frame at t0
+  double dphi = 0.0;                               // rad, not wrapped (a full turn stays 2 pi)
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of (dp, dphi)
+  double distance = 0.0;                           // m travelled (sum of |ds|)
+  double rotation = 0.0;                           // rad turned (sum of |dphi|)
+  SE2 pose() const { return SE2(dp, dphi); }       // T_b0_b1
+};
+
+// The accumulator of eqs. 11 to 13, frame-agnostic: it integrates whatever increments it is given.
+class WheelPreintegrator {
+ public:
+  void reset() { *this = WheelPreintegrator(); }
+  // One increment (dp, dphi) in the current body frame with its covariance Sigma_n. Optional
+  // outputs: the step Jacobians A_k and B_k.
+  void integrate(const Eigen::Vector2d& dp, double dphi, const Eigen::Matrix3d& sigma_n,
+                 Eigen::Matrix3d* A = nullptr, Eigen::Matrix3d* B = nullptr);
+  const Eigen::Vector2d& dp() const { return dp_; }
+  double dphi() const { return dphi_; }
+  const Eigen::Matrix3d& covariance() const { return cov_; }
+
+ private:
+  Eigen::Vector2d dp_ = Eigen::Vector2d::Zero();
+  double dphi_ = 0.0;
+  Eigen::Matrix3d cov_ = Eigen::Matrix3d::Zero();
+};
+
+// A time-stamped stream of odometry at any rate, integrated between any two times. One input
+// kind per stream: the robot's own odometry poses, wheel angles, or wheel speeds. Increments are
+// measured in the odometry frame o, mounted at T_b_o on the body; results are in the body frame.
+class WheelOdometry {
+ public:
+  explicit WheelOdometry(const WheelNoise& noise = {}, const SE2& T_b_o = SE2());
+
+  // Odometry pose of frame o in the odometry's world at time t (MRPT CObservationOdometry,
+  // OpenLORIS odom.txt). Throws std::invalid_argument on NaN or a time not after the last one.
+  void addPose(double t, const SE2& T_odom_o);
+  // Cumulative wheel angles, rad (ticks * 2 pi / ticks_per_revolution).
+  void addWheelAngles(double t, double q_left, double q_right, const DiffDriveParams& drive);
+  // Wheel angular speeds, rad/s; integrated with the trapezoid rule between readings.
+  void addWheelSpeeds(double t, double w_left, double w_right, const DiffDriveParams& drive);
+
+  bool empty() const { return segments_.empty(); }
+  double firstTime() const;  // of the first reading
+  double lastTime() const;   // of the last reading
+  // Motion of the body between t0 and t1, firstTime() <= t0 <= t1 <= lastTime(); a reading that
+  // straddles t0 or t1 is split along its constant-twist arc. Throws std::out_of_range otherwise.
+  WheelDelta integrate(double t0, double t1) const;
+  // T_w_b at t1 predicted from T_w_b at t0 (for tracking).
+  SE2 predict(const SE2& T_w_b0, double t0, double t1) const { return T_w_b0 * integrate(t0, t1).pose(); }
+  // Forget the readings that end before t (what leaves the window stops costing).
+  void dropBefore(double t);
+
+ private:
+  enum class Input { kNone, kPose, kWheelAngles, kWheelSpeeds };
+  struct Segment {
+    double t0, t1;
+    SE2 increment;              // T_o(t0)_o(t1)
+    Eigen::Matrix3d sigma_n;    // of (dp, dphi)
+    double ds, dphi_abs;        // m, rad: |motion| covered
+  };
+  void checkReading(double t, Input kind, std::initializer_list<double> values);
+  void pushWheelIncrement(double t, double dq_left, double dq_right, const DiffDriveParams& drive);
+
+  WheelNoise noise_;
+  SE2 T_b_o_;
+  Input input_ = Input::kNone;
+  std::deque<Segment> segments_;
+  double last_t_ = 0.0;
+  bool has_last_ = false;
+  SE2 last_pose_;
+  double last_a_ = 0.0, last_b_ = 0.0;  // last wheel angles or speeds
+};
+
+}  // namespace rvwo

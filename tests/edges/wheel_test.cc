@@ -1,0 +1,323 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+// Wheel preintegration (eqs. 11 to 13) and the wheel edge (eq. 14): step and edge Jacobians
+// against central differences, propagated covariance against Monte Carlo for straight, arc and
+// spin-in-place motion (pose readings and wheel encoders), rate independence, the odometry
+// extrinsic, splitting readings at frame times, and bad input.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <functional>
+#include <random>
+
+#include "../common/numeric.h"
+#include "rvwo/edges/wheel_edge.h"
+#include "rvwo/edges/wheel_preintegration.h"
+
+namespace rvwo {
+namespace {
+
+using test::numericJacobian;
+using test::randomAngle;
+using test::relativeError;
+constexpr double kPi = 3.14159265358979323846;
+
+TEST(WheelPreintegrator, StepJacobiansAgainstNumeric) {
+  std::mt19937_64 rng(30);
+  std::uniform_real_distribution<double> u(-1, 1);
+  double worst = 0;
+  for (int i = 0; i < 1000; ++i) {
+    WheelPreintegrator pre;
+    pre.integrate(Eigen::Vector2d(u(rng), u(rng)), randomAngle(rng, i), Eigen::Matrix3d::Zero());
+    const Eigen::Vector2d dp(0.1 * u(rng), 0.1 * u(rng));
+    const double dphi = 0.1 * u(rng);
+    Eigen::Matrix3d A, B;
+    WheelPreintegrator step = pre;
+    step.integrate(dp, dphi, Eigen::Matrix3d::Zero(), &A, &B);
+    // next(state, reading) of eq. 11, as a function of the state and of the reading.
+    auto next = [](const Eigen::Vector3d& s, const Eigen::Vector3d& m) -> Eigen::VectorXd {
+      Eigen::Vector3d o;
+      o.head<2>() = s.head<2>() + rotation2(s.z()) * m.head<2>();
+      o.z() = s.z() + m.z();
+      return o;
+    };
+    const Eigen::Vector3d s(pre.dp().x(), pre.dp().y(), pre.dphi()), m(dp.x(), dp.y(), dphi);
+    worst = std::max(worst, relativeError(A, numericJacobian([&](const Eigen::VectorXd& x) { return next(x, m); }, s)));
+    worst = std::max(worst, relativeError(B, numericJacobian([&](const Eigen::VectorXd& x) { return next(s, x); }, m)));
+  }
+  EXPECT_LT(worst, 1e-6);
+}
+
+TEST(WheelEdge, JacobiansAgainstNumeric) {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> u(-20, 20);
+  double worst = 0;
+  for (int i = 0; i < 1000; ++i) {
+    const Eigen::Vector3d xi(u(rng), u(rng), randomAngle(rng, i)), xj(u(rng), u(rng), randomAngle(rng, i + 1));
+    const Eigen::Vector2d dp(0.05 * u(rng), 0.05 * u(rng));
+    // Keep phi_j - phi_i - dphi away from the wrap at +-pi, where the residual is discontinuous.
+    const double dphi = wrapAngle(xj.z() - xi.z() - 0.5 * randomAngle(rng, 3));
+    Eigen::Matrix3d Ji, Jj;
+    wheelResidual(xi, xj, dp, dphi, &Ji, &Jj);
+    worst = std::max(worst, relativeError(Ji, numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
+                                                                return wheelResidual(x, xj, dp, dphi);
+                                                              }, xi)));
+    worst = std::max(worst, relativeError(Jj, numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
+                                                                return wheelResidual(xi, x, dp, dphi);
+                                                              }, xj)));
+  }
+  EXPECT_LT(worst, 1e-6);
+}
+
+TEST(WheelEdge, ResidualZeroAtTruthAndWrapped) {
+  const SE2 Ti(1, 2, 3.0), Tj(4, -1, -3.0);  // crosses +-pi
+  WheelDelta d;
+  d.dp = Ti.between(Tj).translation();
+  d.dphi = Tj.angle() - Ti.angle() + 2 * kPi;  // unwrapped accumulation: 2 pi - 6
+  d.covariance = Eigen::Matrix3d::Identity() * 1e-4;
+  const WheelEdge e(d);
+  EXPECT_LT(e.residual(Ti.vector(), Tj.vector()).norm(), 1e-12);
+  EXPECT_NEAR((e.sqrtInformation().transpose() * e.sqrtInformation() - e.information()).norm(), 0, 1e-6);
+  d.covariance(2, 2) = -1;
+  EXPECT_THROW(WheelEdge{d}, std::invalid_argument);
+}
+
+// ---- motion models ----------------------------------------------------------------------------
+struct Motion {
+  std::function<double(double)> v, w;  // body speed m/s and turn rate rad/s at time t
+};
+Motion straight() { return {[](double) { return 0.8; }, [](double) { return 0.0; }}; }
+Motion arc() { return {[](double t) { return 0.5 + 0.2 * std::sin(t); }, [](double t) { return 0.4 * std::cos(0.5 * t); }}; }
+Motion spin() { return {[](double) { return 0.0; }, [](double) { return 0.9; }}; }
+
+// True pose at t, integrated finely (midpoint twist steps of 1e-4 s) from the identity.
+SE2 truePose(const Motion& m, double t) {
+  SE2 T;
+  const int n = static_cast<int>(std::ceil(t / 1e-4));
+  const double h = t / n;
+  for (int k = 0; k < n; ++k) {
+    const double tm = (k + 0.5) * h;
+    T = T * SE2::exp(Eigen::Vector3d(m.v(tm) * h, 0.0, m.w(tm) * h));
+  }
+  return T;
+}
+
+std::vector<double> times(double rate, double t_end) {
+  std::vector<double> t;
+  for (int k = 0; k * (1.0 / rate) <= t_end + 1e-12; ++k) t.push_back(k / rate);
+  return t;
+}
+
+// Sample covariance of (dp, dphi) over Monte Carlo runs against the propagated covariance.
+void expectCovarianceMatches(const std::vector<Eigen::Vector3d>& samples, const Eigen::Matrix3d& predicted, double tol, const char* what) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& s : samples) mean += s / samples.size();
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  for (const auto& s : samples) S += (s - mean) * (s - mean).transpose() / (samples.size() - 1);
+  const double rel = (S - predicted).norm() / predicted.norm();
+  EXPECT_LT(rel, tol) << what << "\nsample\n" << S << "\npredicted\n" << predicted;
+}
+
+class WheelMonteCarlo : public ::testing::TestWithParam<int> {};
+
+TEST_P(WheelMonteCarlo, PoseReadingsCovarianceMatchesSamples) {
+  const Motion motions[] = {straight(), arc(), spin()};
+  const Motion& m = motions[GetParam()];
+  WheelNoise noise;
+  noise.floor_p = noise.floor_phi = 1e-3;
+  const SE2 T_b_o(0.3, -0.1, 0.4);  // odometry frame offset from the body: exercises the extrinsic
+  const auto t = times(50.0, 2.0);
+  std::vector<SE2> truth_o;
+  for (double tk : t) truth_o.push_back(truePose(m, tk) * T_b_o);
+  std::mt19937_64 rng(40 + GetParam());
+  std::normal_distribution<double> g(0, 1);
+  std::vector<Eigen::Vector3d> samples;
+  WheelDelta last;
+  for (int run = 0; run < 5000; ++run) {
+    WheelOdometry odo(noise, T_b_o);
+    SE2 noisy = truth_o[0];
+    odo.addPose(t[0], noisy);
+    for (std::size_t k = 1; k < t.size(); ++k) {
+      const SE2 inc = truth_o[k - 1].between(truth_o[k]);
+      const Eigen::Vector3d xi = inc.log();
+      const Eigen::Matrix3d L = noise.poseReadingCovariance(xi.head<2>().norm(), xi.z(), t[k] - t[k - 1]).llt().matrixL();
+      const Eigen::Vector3d n = L * Eigen::Vector3d(g(rng), g(rng), g(rng));
+      noisy = noisy * SE2(inc.translation() + n.head<2>(), inc.angle() + n.z());
+      odo.addPose(t[k], noisy);
+    }
+    last = odo.integrate(0.2, 1.8);
+    samples.emplace_back(last.dp.x(), last.dp.y(), last.dphi);
+  }
+  // The mean is the true body motion (first order), in the body frame.
+  const SE2 true_delta = truePose(m, 0.2).between(truePose(m, 1.8));
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& s : samples) mean += s / samples.size();
+  EXPECT_NEAR((mean.head<2>() - true_delta.translation()).norm(), 0, 3e-3);
+  EXPECT_NEAR(wrapAngle(mean.z() - true_delta.angle()), 0, 3e-3);
+  expectCovarianceMatches(samples, last.covariance, 0.10, "pose readings");
+}
+
+TEST_P(WheelMonteCarlo, EncoderCovarianceMatchesSamples) {
+  const Motion motions[] = {straight(), arc(), spin()};
+  const Motion& m = motions[GetParam()];
+  DiffDriveParams drive;
+  drive.radius_left = 0.10;
+  drive.radius_right = 0.102;
+  drive.track = 0.45;
+  WheelNoise noise;
+  noise.sigma_wheel = 0.02;
+  noise.sigma_y = 0.0;
+  noise.floor_p = noise.floor_phi = 1e-4;
+  const auto t = times(100.0, 2.0);
+  // True cumulative wheel angles: dq = (v -+ w track / 2) dt / r.
+  std::vector<Eigen::Vector2d> q(t.size(), Eigen::Vector2d::Zero());
+  for (std::size_t k = 1; k < t.size(); ++k) {
+    const double tm = 0.5 * (t[k] + t[k - 1]), dt = t[k] - t[k - 1];
+    q[k] = q[k - 1] + Eigen::Vector2d((m.v(tm) - m.w(tm) * drive.track / 2) * dt / drive.radius_left,
+                                      (m.v(tm) + m.w(tm) * drive.track / 2) * dt / drive.radius_right);
+  }
+  std::mt19937_64 rng(50 + GetParam());
+  std::normal_distribution<double> g(0, 1);
+  std::vector<Eigen::Vector3d> samples;
+  WheelDelta last;
+  for (int run = 0; run < 5000; ++run) {
+    WheelOdometry odo(noise);
+    Eigen::Vector2d qn = q[0];
+    odo.addWheelAngles(t[0], qn.x(), qn.y(), drive);
+    for (std::size_t k = 1; k < t.size(); ++k) {
+      const Eigen::Vector2d dq = q[k] - q[k - 1];
+      qn += dq + noise.sigma_wheel * Eigen::Vector2d(std::sqrt(std::fabs(dq.x())) * g(rng), std::sqrt(std::fabs(dq.y())) * g(rng));
+      odo.addWheelAngles(t[k], qn.x(), qn.y(), drive);
+    }
+    last = odo.integrate(0.0, 2.0);
+    samples.emplace_back(last.dp.x(), last.dp.y(), last.dphi);
+  }
+  expectCovarianceMatches(samples, last.covariance, 0.10, "encoders");
+}
+
+INSTANTIATE_TEST_SUITE_P(StraightArcSpin, WheelMonteCarlo, ::testing::Values(0, 1, 2));
+
+// One long encoder reading (a 1-radian arc): the per-reading covariance G diag(...) G^T itself,
+// including the cross terms that the arc's curvature adds, against samples.
+TEST(WheelOdometry, EncoderSingleReadingCovarianceMatchesSamples) {
+  DiffDriveParams drive;
+  WheelNoise noise;
+  noise.sigma_wheel = 0.003;
+  noise.sigma_y = 0.0;
+  noise.floor_p = noise.floor_phi = 0.0;
+  const Eigen::Vector2d dq(20.0, 22.5);  // rad: a 2.1 m arc turning 0.5 rad
+  std::mt19937_64 rng(60);
+  std::normal_distribution<double> g(0, 1);
+  std::vector<Eigen::Vector3d> samples;
+  WheelDelta d;
+  for (int run = 0; run < 20000; ++run) {
+    WheelOdometry odo(noise);
+    odo.addWheelAngles(0.0, 0.0, 0.0, drive);
+    odo.addWheelAngles(1.0, dq.x() + noise.sigma_wheel * std::sqrt(dq.x()) * g(rng),
+                       dq.y() + noise.sigma_wheel * std::sqrt(dq.y()) * g(rng), drive);
+    d = odo.integrate(0.0, 1.0);
+    samples.emplace_back(d.dp.x(), d.dp.y(), d.dphi);
+  }
+  expectCovarianceMatches(samples, d.covariance, 0.05, "one encoder reading");
+}
+
+// The part f of a reading carries the fraction f of its noise (a random walk over the motion).
+TEST(WheelOdometry, PartOfAReadingCarriesItsShareOfNoise) {
+  WheelNoise noise;
+  WheelOdometry odo(noise);
+  odo.addPose(0.0, SE2(0, 0, 0));
+  odo.addPose(1.0, SE2(1.0, 0, 0));
+  const Eigen::Matrix3d whole = odo.integrate(0.0, 1.0).covariance;
+  EXPECT_NEAR((whole - noise.poseReadingCovariance(1.0, 0.0, 1.0)).norm(), 0, 1e-15);
+  EXPECT_NEAR((odo.integrate(0.2, 0.5).covariance - 0.3 * whole).norm(), 0, 1e-15);
+}
+
+TEST(WheelOdometry, RateIndependence) {
+  const Motion m = arc();
+  WheelNoise noise;
+  WheelDelta d[2];
+  const double rates[] = {20.0, 200.0};
+  for (int i = 0; i < 2; ++i) {
+    WheelOdometry odo(noise);
+    for (double tk : times(rates[i], 6.0)) odo.addPose(tk, truePose(m, tk));
+    d[i] = odo.integrate(0.513, 5.271);  // frame times inside readings at both rates
+  }
+  EXPECT_NEAR((d[0].dp - d[1].dp).norm(), 0, 1e-3);
+  EXPECT_NEAR(d[0].dphi - d[1].dphi, 0, 1e-3);
+  EXPECT_LT((d[0].covariance - d[1].covariance).norm() / d[1].covariance.norm(), 0.05);
+  EXPECT_NEAR(d[0].distance, d[1].distance, 1e-3);
+  const SE2 truth = truePose(m, 0.513).between(truePose(m, 5.271));
+  EXPECT_NEAR((d[1].dp - truth.translation()).norm(), 0, 1e-3);
+}
+
+TEST(WheelOdometry, SplittingAtFrameTimesComposes) {
+  WheelOdometry odo;
+  const Motion m = arc();
+  for (double tk : times(30.0, 3.0)) odo.addPose(tk, truePose(m, tk));
+  const WheelDelta a = odo.integrate(0.31, 1.05), b = odo.integrate(1.05, 2.77), ab = odo.integrate(0.31, 2.77);
+  const SE2 composed = a.pose() * b.pose();
+  EXPECT_NEAR((composed.translation() - ab.dp).norm(), 0, 1e-12);
+  EXPECT_NEAR(composed.angle() - wrapAngle(ab.dphi), 0, 1e-12);
+  EXPECT_NEAR(a.distance + b.distance, ab.distance, 1e-12);
+  // An empty interval is the identity with zero covariance.
+  const WheelDelta z = odo.integrate(1.5, 1.5);
+  EXPECT_EQ(z.dp.norm(), 0.0);
+  EXPECT_EQ(z.covariance.norm(), 0.0);
+  // predict() applies the delta to a world pose.
+  const SE2 T_w_b0(5, 5, 1.0);
+  const SE2 p = odo.predict(T_w_b0, 0.31, 2.77);
+  EXPECT_NEAR((p.translation() - (T_w_b0 * ab.pose()).translation()).norm(), 0, 1e-12);
+}
+
+TEST(WheelOdometry, WheelSpeedsAndAnglesAgree) {
+  DiffDriveParams drive;
+  WheelOdometry by_angle, by_speed;
+  const double wl = 3.0, wr = 4.0;  // rad/s, constant: the trapezoid rule is exact
+  for (double tk : times(50.0, 2.0)) {
+    by_angle.addWheelAngles(tk, wl * tk, wr * tk, drive);
+    by_speed.addWheelSpeeds(tk, wl, wr, drive);
+  }
+  const WheelDelta a = by_angle.integrate(0.1, 1.9), s = by_speed.integrate(0.1, 1.9);
+  EXPECT_NEAR((a.dp - s.dp).norm(), 0, 1e-12);
+  EXPECT_NEAR(a.dphi - s.dphi, 0, 1e-12);
+  // Closed form: a circle of radius R = track/2 (vr + vl)/(vr - vl) at rate w.
+  const double vl = wl * drive.radius_left, vr = wr * drive.radius_right, w = (vr - vl) / drive.track;
+  const SE2 truth = SE2::exp(Eigen::Vector3d(0.5 * (vl + vr) * 1.8, 0, w * 1.8));
+  EXPECT_NEAR((a.dp - truth.translation()).norm(), 0, 1e-12);
+}
+
+TEST(WheelOdometry, BadInputGetsClearErrors) {
+  WheelOdometry odo;
+  EXPECT_THROW(odo.firstTime(), std::out_of_range);
+  odo.addPose(1.0, SE2(0, 0, 0));
+  EXPECT_THROW(odo.addPose(2.0, SE2(std::nan(""), 0, 0)), std::invalid_argument);
+  try {
+    odo.addPose(0.5, SE2(1, 0, 0));
+    FAIL() << "time going backwards accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("timestamps must increase"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(odo.addPose(1.0, SE2(1, 0, 0)), std::invalid_argument);  // repeated time
+  EXPECT_THROW(odo.addWheelAngles(2.0, 0, 0, DiffDriveParams()), std::invalid_argument);  // mixed kinds
+  odo.addPose(2.0, SE2(1, 0, 0));
+  EXPECT_THROW(odo.integrate(0.5, 1.5), std::out_of_range);
+  EXPECT_THROW(odo.integrate(1.5, 2.5), std::out_of_range);
+  EXPECT_THROW(odo.integrate(1.8, 1.2), std::out_of_range);
+  DiffDriveParams bad;
+  bad.track = 0;
+  WheelOdometry enc;
+  EXPECT_THROW(enc.addWheelAngles(0.0, 0, 0, bad), std::invalid_argument);
+  WheelNoise n;
+  n.sigma_x = -1;
+  EXPECT_THROW(WheelOdometry{n}, std::invalid_argument);
+}
+
+TEST(WheelOdometry, DropBeforeBoundsMemory) {
+  WheelOdometry odo;
+  for (double tk : times(100.0, 10.0)) odo.addPose(tk, SE2(tk, 0, 0));
+  odo.dropBefore(9.0);
+  EXPECT_NEAR(odo.firstTime(), 8.99, 1e-9);
+  EXPECT_NEAR(odo.integrate(9.0, 10.0).dp.x(), 1.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace rvwo
