@@ -1,0 +1,53 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// Ceres adapter of the adaptive Barron kernel (rvwo/kernels/barron.h): rho(s), rho'(s), rho''(s)
+// of the squared whitened residual s, exactly as BarronKernel computes them (the maths exists once).
+//
+// One BarronLoss per residual block lets each landmark carry its own alpha. setAlpha() may be
+// called between solver iterations (from a ceres::IterationCallback, e.g. AlphaRefreshCallback
+// below), never while Ceres evaluates: Evaluate() reads alpha without locking.
+#pragma once
+
+#include <ceres/iteration_callback.h>
+#include <ceres/loss_function.h>
+
+#include <functional>
+#include <utility>
+#include <vector>
+
+#include "rvwo/kernels/barron.h"
+
+namespace rvwo::ceres_adapters {
+
+class BarronLoss final : public ceres::LossFunction {
+ public:
+  explicit BarronLoss(double alpha = 1.0, double c = 1.0) : kernel_(alpha, c) {}
+  void Evaluate(double s, double rho[3]) const override { kernel_.evaluate(s, rho); }
+  void setAlpha(double alpha) { kernel_.setAlpha(alpha); }
+  double alpha() const { return kernel_.alpha(); }
+  double c() const { return kernel_.c(); }
+  const BarronKernel& kernel() const { return kernel_; }
+
+ private:
+  BarronKernel kernel_;
+};
+
+// Calls refresh(loss) for every registered loss at the end of each iteration, so that alphas
+// follow the reliability model while the solver runs. Add it to Solver::Options::callbacks and
+// set update_state_every_iteration = true when refresh reads the parameter blocks.
+class AlphaRefreshCallback final : public ceres::IterationCallback {
+ public:
+  using Refresh = std::function<void(BarronLoss& loss, std::size_t index)>;
+  AlphaRefreshCallback(std::vector<BarronLoss*> losses, Refresh refresh)
+      : losses_(std::move(losses)), refresh_(std::move(refresh)) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    for (std::size_t i = 0; i < losses_.size(); ++i) refresh_(*losses_[i], i);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  std::vector<BarronLoss*> losses_;
+  Refresh refresh_;
+};
+
+}  // namespace rvwo::ceres_adapters

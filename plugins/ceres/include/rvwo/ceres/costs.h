@@ -1,0 +1,52 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// Ceres cost functions over the core edges (rvwo/edges/...), with analytic Jacobians from the
+// core: residuals whitened by a square-root information S (S^T S = Sigma^-1).
+//
+//   Se2XyzCost<N>: blocks (x, y, theta)[3] and P_w[3]; residual S (h - z), N = 2 mono, 3 stereo.
+//   WheelCost:     blocks (x, y, theta)_i[3] and (x, y, theta)_j[3]; residual S r (eq. 14).
+//
+// Use SE2Manifold on the pose blocks. A projection that fails (point behind the camera) makes
+// Evaluate return false, which Ceres treats as an infeasible step: do not add edges for points
+// that are not in front of the camera at the start.
+#pragma once
+
+#include <ceres/sized_cost_function.h>
+
+#include <Eigen/Core>
+
+#include "rvwo/edges/se2_xyz_edge.h"
+#include "rvwo/edges/wheel_edge.h"
+
+namespace rvwo::ceres_adapters {
+
+template <int N>
+class Se2XyzCost final : public ceres::SizedCostFunction<N, 3, 3> {
+ public:
+  using Vector = typename Se2XyzEdge<N>::Vector;
+  using Matrix = Eigen::Matrix<double, N, N>;
+  Se2XyzCost(const Se2XyzEdge<N>& edge, const Vector& z, const Matrix& sqrt_information)
+      : edge_(edge), z_(z), sqrt_information_(sqrt_information) {}
+  // The square-root information of the inflated covariance at a linearisation point (eq. 10),
+  // computed once per problem set-up: the inflation depends on the point's position in the body.
+  static Matrix sqrtInformation(const Se2XyzEdge<N>& edge, const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w,
+                                double sigma_px, const OutOfPlaneNoise& noise);
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  Se2XyzEdge<N> edge_;
+  Vector z_;
+  Matrix sqrt_information_;
+};
+
+class WheelCost final : public ceres::SizedCostFunction<3, 3, 3> {
+ public:
+  explicit WheelCost(const WheelEdge& edge) : edge_(edge) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  WheelEdge edge_;
+};
+
+}  // namespace rvwo::ceres_adapters

@@ -1,0 +1,49 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+#include "rvwo/ceres/costs.h"
+
+#include <Eigen/Cholesky>
+
+namespace rvwo::ceres_adapters {
+
+template <int N>
+typename Se2XyzCost<N>::Matrix Se2XyzCost<N>::sqrtInformation(const Se2XyzEdge<N>& edge, const Eigen::Vector3d& x_w_b,
+                                                              const Eigen::Vector3d& P_w, double sigma_px,
+                                                              const OutOfPlaneNoise& noise) {
+  const Eigen::LLT<Matrix> llt(edge.covariance(x_w_b, P_w, sigma_px, noise));
+  // Sigma = L L^T, so S = L^-1 whitens: S^T S = Sigma^-1.
+  return llt.matrixL().solve(Matrix::Identity());
+}
+
+template <int N>
+bool Se2XyzCost<N>::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const Eigen::Map<const Eigen::Vector3d> x(parameters[0]), P(parameters[1]);
+  Vector r;
+  typename Se2XyzEdge<N>::Jacobian Jx, Jp;
+  const bool want_x = jacobians && jacobians[0], want_p = jacobians && jacobians[1];
+  if (!edge_.residual(x, P, z_, &r, want_x ? &Jx : nullptr, want_p ? &Jp : nullptr)) return false;
+  Eigen::Map<Vector> res(residuals);
+  res = sqrt_information_ * r;
+  using RowMajor = Eigen::Matrix<double, N, 3, Eigen::RowMajor>;
+  if (want_x) Eigen::Map<RowMajor>{jacobians[0]} = sqrt_information_ * Jx;
+  if (want_p) Eigen::Map<RowMajor>{jacobians[1]} = sqrt_information_ * Jp;
+  return true;
+}
+
+template class Se2XyzCost<2>;
+template class Se2XyzCost<3>;
+
+bool WheelCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const Eigen::Map<const Eigen::Vector3d> xi(parameters[0]), xj(parameters[1]);
+  Eigen::Matrix3d Ji, Jj;
+  const bool want_i = jacobians && jacobians[0], want_j = jacobians && jacobians[1];
+  const Eigen::Vector3d r = edge_.residual(xi, xj, want_i ? &Ji : nullptr, want_j ? &Jj : nullptr);
+  const Eigen::Matrix3d& S = edge_.sqrtInformation();
+  Eigen::Map<Eigen::Vector3d> res(residuals);
+  res = S * r;
+  using RowMajor = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+  if (want_i) Eigen::Map<RowMajor>{jacobians[0]} = S * Ji;
+  if (want_j) Eigen::Map<RowMajor>{jacobians[1]} = S * Jj;
+  return true;
+}
+
+}  // namespace rvwo::ceres_adapters

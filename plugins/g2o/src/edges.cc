@@ -1,0 +1,69 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+#include "rvwo/g2o/edges.h"
+
+#include <Eigen/Cholesky>
+
+namespace rvwo::g2o_adapters {
+namespace {
+
+Eigen::Vector3d poseVector(const g2o::VertexSE2* v) { return v->estimate().toVector(); }
+
+}  // namespace
+
+template <int N>
+void EdgeSE2XYZ<N>::setInflatedInformation(double sigma_px, const OutOfPlaneNoise& noise) {
+  const auto cov = core_.covariance(poseVector(this->template vertexXnRaw<0>()),
+                                    this->template vertexXnRaw<1>()->estimate(), sigma_px, noise);
+  this->setInformation(cov.inverse());
+}
+
+template <int N>
+void EdgeSE2XYZ<N>::computeError() {
+  typename Se2XyzEdge<N>::Vector r;
+  if (!core_.residual(poseVector(this->template vertexXnRaw<0>()), this->template vertexXnRaw<1>()->estimate(),
+                      this->measurement_, &r)) {
+    // Behind the camera: a large, finite error so the kernel rejects it rather than NaN the system.
+    r.setConstant(1e4);
+  }
+  this->error_ = r;
+}
+
+template <int N>
+void EdgeSE2XYZ<N>::linearizeOplus() {
+  typename Se2XyzEdge<N>::Vector h;
+  typename Se2XyzEdge<N>::Jacobian Jx, Jp;
+  if (!core_.predict(poseVector(this->template vertexXnRaw<0>()), this->template vertexXnRaw<1>()->estimate(), &h,
+                     &Jx, &Jp)) {
+    Jx.setZero();
+    Jp.setZero();
+  }
+  this->jacobianOplusXi_ = Jx;
+  this->jacobianOplusXj_ = Jp;
+}
+
+template <int N>
+bool EdgeSE2XYZ<N>::isProjectable() const {
+  typename Se2XyzEdge<N>::Vector h;
+  return core_.predict(poseVector(this->template vertexXnRaw<0>()), this->template vertexXnRaw<1>()->estimate(), &h);
+}
+
+template class EdgeSE2XYZ<2>;
+template class EdgeSE2XYZ<3>;
+
+EdgeSE2Wheel::EdgeSE2Wheel(const WheelDelta& delta) : core_(delta) {
+  setMeasurement(Eigen::Vector3d(delta.dp.x(), delta.dp.y(), delta.dphi));
+  setInformation(core_.information());
+}
+
+void EdgeSE2Wheel::computeError() {
+  error_ = core_.residual(poseVector(vertexXnRaw<0>()), poseVector(vertexXnRaw<1>()));
+}
+
+void EdgeSE2Wheel::linearizeOplus() {
+  Eigen::Matrix3d Ji, Jj;
+  core_.residual(poseVector(vertexXnRaw<0>()), poseVector(vertexXnRaw<1>()), &Ji, &Jj);
+  jacobianOplusXi_ = Ji;
+  jacobianOplusXj_ = Jj;
+}
+
+}  // namespace rvwo::g2o_adapters
