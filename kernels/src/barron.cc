@@ -44,6 +44,7 @@ void BarronKernel::setAlpha(double alpha) {
     scale_ = 2.0 * c2 * d / alpha;
     half_a_ = 0.5 * alpha;
     curv_ = (alpha > 2.0 ? 1.0 : -1.0) * inv_2c2_;
+    near_two_ = d < 0.25;
   }
 }
 
@@ -96,15 +97,25 @@ void BarronKernel::evaluate(double s, double rho[3]) const {
       return;
     }
     case Branch::kGeneral: {
+      // Two elementary functions: L = log1p(z), then p = (1+z)^(a/2) = exp(a/2 L), through expm1
+      // where p - 1 is small (a near 0 or s near 0) so that rho keeps its relative precision.
       const double z = s * inv_c2d_;
       const double l = std::log1p(z);
-      const double w = std::exp((half_a_ - 1.0) * l);  // (1+z)^(a/2-1)
       const double x = half_a_ * l;
-      // (1+z)^(a/2) - 1: expm1 where it is small (a near 0 or s near 0), else from w, which is
-      // then exact to a few ulp because the result is at least 1 - e^-0.5 in magnitude.
-      rho[0] = scale_ * (std::fabs(x) < 0.5 ? std::expm1(x) : (1.0 + z) * w - 1.0);
-      rho[1] = w;
-      rho[2] = curv_ * w / (1.0 + z);
+      double p, pm1;
+      if (std::fabs(x) < 0.5) {
+        pm1 = std::expm1(x);
+        p = 1.0 + pm1;
+      } else {
+        p = std::exp(x);
+        pm1 = p - 1.0;  // |p - 1| >= 1 - e^-0.5: no cancellation
+      }
+      const double inv_1pz = 1.0 / (1.0 + z);
+      rho[0] = scale_ * pm1;
+      // (1+z)^(a/2 - 1): as p / (1+z), except near a = 2, where z is huge, p / (1+z) would carry
+      // |x| ulp of error and a third call keeps it to a few ulp (the adaptive model has a <= 1).
+      rho[1] = near_two_ ? std::exp((half_a_ - 1.0) * l) : p * inv_1pz;
+      rho[2] = curv_ * rho[1] * inv_1pz;  // sign(a-2)/(2c^2) (1+z)^(a/2 - 2)
       return;
     }
   }

@@ -71,6 +71,7 @@ class BarronKernel {
   double curv_ = -0.5;      // sign(a - 2) / (2 c^2)
   double inv_2c2_ = 0.5;    // 1 / (2 c^2)
   double two_c2_ = 2.0;     // 2 c^2
+  bool near_two_ = false;   // |a - 2| < 0.25: rho' by its own exp (see evaluate)
 };
 
 }  // namespace rvwo
