@@ -43,11 +43,16 @@ void run(benchmark::State& state, Eval&& eval) {
 
 double alphaOf(int64_t code) {
   switch (code) {
-    case 0: return 1.0;
-    case 1: return 0.0;
-    case 2: return -2.0;
-    case 3: return -std::numeric_limits<double>::infinity();
-    default: return -0.73;  // a general shape from the reliability model
+    case 0:
+      return 1.0;
+    case 1:
+      return 0.0;
+    case 2:
+      return -2.0;
+    case 3:
+      return -std::numeric_limits<double>::infinity();
+    default:
+      return -0.73;  // a general shape from the reliability model
   }
 }
 

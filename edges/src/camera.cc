@@ -26,8 +26,8 @@ Eigen::Vector3d PinholeCamera::unproject(const Eigen::Vector2d& uv) const {
   return {(uv.x() - cx_) / fx_, (uv.y() - cy_) / fy_, 1.0};
 }
 
-KannalaBrandtCamera::KannalaBrandtCamera(double fx, double fy, double cx, double cy, double k1, double k2,
-                                         double k3, double k4)
+KannalaBrandtCamera::KannalaBrandtCamera(double fx, double fy, double cx, double cy, double k1, double k2, double k3,
+                                         double k4)
     : CameraModel(fx, fy, cx, cy), k_(k1, k2, k3, k4) {
   if (!k_.allFinite()) throw std::invalid_argument("camera: Kannala-Brandt coefficients must be finite");
 }

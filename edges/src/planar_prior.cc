@@ -6,8 +6,7 @@
 
 namespace rvwo {
 
-PlanarPrior::PlanarPrior(const Eigen::Isometry3d& T_w_p, double sigma_z, double sigma_tilt)
-    : T_p_w_(T_w_p.inverse()) {
+PlanarPrior::PlanarPrior(const Eigen::Isometry3d& T_w_p, double sigma_z, double sigma_tilt) : T_p_w_(T_w_p.inverse()) {
   if (!(sigma_z > 0 && sigma_tilt > 0 && std::isfinite(sigma_z) && std::isfinite(sigma_tilt))) {
     throw std::invalid_argument("PlanarPrior: sigma_z and sigma_tilt must be finite and > 0");
   }

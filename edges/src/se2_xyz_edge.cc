@@ -52,8 +52,8 @@ bool Se2XyzEdge<N>::project(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d&
 }
 
 template <int N>
-bool Se2XyzEdge<N>::predict(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, Vector* h,
-                            Jacobian* J_pose, Jacobian* J_point) const {
+bool Se2XyzEdge<N>::predict(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, Vector* h, Jacobian* J_pose,
+                            Jacobian* J_point) const {
   Eigen::Matrix<double, N, 3> M;
   Eigen::Vector3d P_b;
   const bool need = J_pose || J_point;
@@ -72,17 +72,16 @@ bool Se2XyzEdge<N>::predict(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d&
 }
 
 template <int N>
-bool Se2XyzEdge<N>::residual(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, const Vector& z,
-                             Vector* r, Jacobian* J_pose, Jacobian* J_point) const {
+bool Se2XyzEdge<N>::residual(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, const Vector& z, Vector* r,
+                             Jacobian* J_pose, Jacobian* J_point) const {
   if (!predict(x_w_b, P_w, r, J_pose, J_point)) return false;
   *r -= z;
   return true;
 }
 
 template <int N>
-typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::covariance(const Eigen::Vector3d& x_w_b,
-                                                             const Eigen::Vector3d& P_w, double sigma_px,
-                                                             const OutOfPlaneNoise& noise) const {
+typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::covariance(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w,
+                                                             double sigma_px, const OutOfPlaneNoise& noise) const {
   Covariance cov = sigma_px * sigma_px * Covariance::Identity();
   Vector h;
   Eigen::Matrix<double, N, 3> M;

@@ -61,7 +61,7 @@ void WheelPreintegrator::integrate(const Eigen::Vector2d& dp, double dphi, const
   Eigen::Matrix3d B = Eigen::Matrix3d::Identity();
   B.block<2, 2>(0, 0) = R;
   cov_ = A * cov_ * A.transpose() + B * sigma_n * B.transpose();  // eq. 13
-  dp_ += Rdp;                                                       // eq. 11
+  dp_ += Rdp;                                                     // eq. 11
   dphi_ += dphi;
   if (A_out) *A_out = A;
   if (B_out) *B_out = B;
@@ -182,8 +182,8 @@ WheelDelta WheelOdometry::integrate(double t0, double t1) const {
   WheelDelta out;
   out.t0 = t0;
   out.t1 = t1;
-  auto it = std::upper_bound(segments_.begin(), segments_.end(), t0,
-                             [](double t, const Segment& s) { return t < s.t1; });
+  auto it =
+      std::upper_bound(segments_.begin(), segments_.end(), t0, [](double t, const Segment& s) { return t < s.t1; });
   for (; it != segments_.end() && it->t0 < t1; ++it) {
     const double span = it->t1 - it->t0;
     const double fa = std::max(0.0, (t0 - it->t0) / span), fb = std::min(1.0, (t1 - it->t0) / span);

@@ -9,8 +9,7 @@ namespace rvwo {
 
 BarronKernel::BarronKernel(double alpha, double c) {
   if (!(std::isfinite(c) && c > 0.0)) {
-    throw std::invalid_argument("BarronKernel: scale c must be finite and > 0, got " +
-                                std::to_string(c));
+    throw std::invalid_argument("BarronKernel: scale c must be finite and > 0, got " + std::to_string(c));
   }
   c_ = c;
   inv_2c2_ = 0.5 / (c * c);

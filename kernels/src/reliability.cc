@@ -127,8 +127,7 @@ ReliabilityManager::Shard& ReliabilityManager::shard(std::uint64_t id) const {
   return shards_[(id * 0x9E3779B97F4A7C15ull) >> 58];
 }
 
-LandmarkReliability ReliabilityManager::observe(std::uint64_t id,
-                                                std::optional<double> semantic_prior,
+LandmarkReliability ReliabilityManager::observe(std::uint64_t id, std::optional<double> semantic_prior,
                                                 std::optional<double> whitened_error) {
   Shard& s = shard(id);
   std::lock_guard<std::mutex> lock(s.mutex);

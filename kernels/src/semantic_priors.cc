@@ -26,34 +26,18 @@ constexpr double kStatic = 0.1;
 //   0.8: large animals, mostly seen standing or grazing.
 //   0.7: road vehicles: as often parked as driving.
 //   0.6: two-wheelers and things carried or worn: they move with a person.
-//   0.5: no evidence either way (with 0.5 the update keeps the prediction): boats, aircraft, water surfaces, sky, flags.
-//   0.4: doors, fans and toys: moved now and then while in view.
-//   0.3: small objects picked up and put down; screens whose content changes under a fixed frame.
-//   0.25: chairs and stools: pushed around between passes, still within one.
-//   0.2: soft furnishings and plants: shift or sway a little.
+//   0.5: no evidence either way (with 0.5 the update keeps the prediction): boats, aircraft, water surfaces, sky,
+//   flags. 0.4: doors, fans and toys: moved now and then while in view. 0.3: small objects picked up and put down;
+//   screens whose content changes under a fixed frame. 0.25: chairs and stools: pushed around between passes, still
+//   within one. 0.2: soft furnishings and plants: shift or sway a little.
 
 // Voc21: 21 classes, in the order of the label ids the networks emit.
 const ClassPrior kVoc21[] = {
-    {"background", kStatic},
-    {"aeroplane", 0.5},
-    {"bicycle", 0.6},
-    {"bird", 0.85},
-    {"boat", 0.5},
-    {"bottle", 0.3},
-    {"bus", 0.7},
-    {"car", 0.7},
-    {"cat", 0.85},
-    {"chair", 0.25},
-    {"cow", 0.8},
-    {"diningtable", kStatic},
-    {"dog", 0.85},
-    {"horse", 0.85},
-    {"motorbike", 0.6},
-    {"person", 0.95},
-    {"pottedplant", 0.2},
-    {"sheep", 0.8},
-    {"sofa", kStatic},
-    {"train", 0.7},
+    {"background", kStatic}, {"aeroplane", 0.5}, {"bicycle", 0.6},   {"bird", 0.85},
+    {"boat", 0.5},           {"bottle", 0.3},    {"bus", 0.7},       {"car", 0.7},
+    {"cat", 0.85},           {"chair", 0.25},    {"cow", 0.8},       {"diningtable", kStatic},
+    {"dog", 0.85},           {"horse", 0.85},    {"motorbike", 0.6}, {"person", 0.95},
+    {"pottedplant", 0.2},    {"sheep", 0.8},     {"sofa", kStatic},  {"train", 0.7},
     {"tvmonitor", 0.3},
 };
 
@@ -325,24 +309,22 @@ SemanticPriors SemanticPriors::builtin(std::string_view name) {
   if (name == "voc21") return make("voc21", kVoc21);
   if (name == "coco80") return make("coco80", kCoco80);
   if (name == "ade20k150") return make("ade20k150", kAde20k150);
-  throw std::invalid_argument("unknown label set '" + std::string(name) +
-                              "' (built in: voc21, coco80, ade20k150)");
+  throw std::invalid_argument("unknown label set '" + std::string(name) + "' (built in: voc21, coco80, ade20k150)");
 }
 
-SemanticPriors::SemanticPriors(std::string name, std::vector<std::string> classes,
-                               std::vector<double> priors)
+SemanticPriors::SemanticPriors(std::string name, std::vector<std::string> classes, std::vector<double> priors)
     : name_(std::move(name)), classes_(std::move(classes)), priors_(std::move(priors)) {
   if (classes_.size() != priors_.size()) {
-    throw std::invalid_argument("label set '" + name_ + "': " + std::to_string(classes_.size()) +
-                                " classes but " + std::to_string(priors_.size()) + " priors");
+    throw std::invalid_argument("label set '" + name_ + "': " + std::to_string(classes_.size()) + " classes but " +
+                                std::to_string(priors_.size()) + " priors");
   }
   for (std::size_t i = 0; i < priors_.size(); ++i) checkPrior(priors_[i], "class '" + classes_[i] + "': ");
 }
 
 const std::string& SemanticPriors::className(int label) const {
   if (label < 0 || static_cast<std::size_t>(label) >= classes_.size()) {
-    throw std::out_of_range("label " + std::to_string(label) + " is not in label set '" + name_ +
-                            "' of " + std::to_string(classes_.size()) + " classes");
+    throw std::out_of_range("label " + std::to_string(label) + " is not in label set '" + name_ + "' of " +
+                            std::to_string(classes_.size()) + " classes");
   }
   return classes_[label];
 }
@@ -355,8 +337,7 @@ int SemanticPriors::labelOf(std::string_view class_name) const {
 void SemanticPriors::set(std::string_view class_name, double prior) {
   const int label = labelOf(class_name);
   if (label < 0) {
-    throw std::invalid_argument("class '" + std::string(class_name) + "' is not in label set '" +
-                                name_ + "'");
+    throw std::invalid_argument("class '" + std::string(class_name) + "' is not in label set '" + name_ + "'");
   }
   checkPrior(prior, "class '" + std::string(class_name) + "': ");
   priors_[label] = prior;

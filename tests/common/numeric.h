@@ -38,10 +38,14 @@ inline double randomAngle(std::mt19937_64& rng, int i) {
   constexpr double kPi = 3.14159265358979323846;
   std::uniform_real_distribution<double> u(-kPi, kPi), tiny(-1e-7, 1e-7);
   switch (i % 5) {
-    case 0: return kPi - std::fabs(tiny(rng));
-    case 1: return -kPi + std::fabs(tiny(rng));
-    case 2: return tiny(rng);
-    default: return u(rng);
+    case 0:
+      return kPi - std::fabs(tiny(rng));
+    case 1:
+      return -kPi + std::fabs(tiny(rng));
+    case 2:
+      return tiny(rng);
+    default:
+      return u(rng);
   }
 }
 

@@ -52,7 +52,8 @@ struct PlanarBA {
       const Eigen::Vector3d& x = poses[static_cast<int>(u(rng) * 6)];
       const double depth = 2 + 8 * u(rng);
       const Eigen::Vector3d ray = camera.unproject(Eigen::Vector2d(640 * u(rng), 480 * u(rng)));
-      const Eigen::Isometry3d T_w_b = Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
+      const Eigen::Isometry3d T_w_b =
+          Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
       const Eigen::Vector3d P_w = T_w_b * T_b_c * (depth * ray);
       std::vector<Observation> seen;
       for (int k = 0; k < 6; ++k) {

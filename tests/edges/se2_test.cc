@@ -1,6 +1,8 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 // SE(2): angle wrapping, group operations and their Jacobians near +-pi and at tiny angles,
 // exp/log round trips, camera projections and the planar prior.
+#include "rvwo/edges/se2.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -9,7 +11,6 @@
 #include "../common/numeric.h"
 #include "rvwo/edges/camera.h"
 #include "rvwo/edges/planar_prior.h"
-#include "rvwo/edges/se2.h"
 
 namespace rvwo {
 namespace {
@@ -59,21 +60,20 @@ TEST(SE2, GroupJacobiansAgainstNumeric) {
     auto fi = [&](const Eigen::VectorXd& x) { return vec(SE2::fromVector(x).inverse(), ai); };
     auto fba = [&](const Eigen::VectorXd& x) { return vec(SE2::fromVector(x).between(b), bt); };
     auto fbb = [&](const Eigen::VectorXd& x) { return vec(a.between(SE2::fromVector(x)), bt); };
-    worst = std::max({worst, relativeError(Ja, numericJacobian(fa, a.vector())),
-                      relativeError(Jb, numericJacobian(fb, b.vector())),
-                      relativeError(Ji, numericJacobian(fi, a.vector())),
-                      relativeError(Jba, numericJacobian(fba, a.vector())),
-                      relativeError(Jbb, numericJacobian(fbb, b.vector()))});
+    worst = std::max(
+        {worst, relativeError(Ja, numericJacobian(fa, a.vector())), relativeError(Jb, numericJacobian(fb, b.vector())),
+         relativeError(Ji, numericJacobian(fi, a.vector())), relativeError(Jba, numericJacobian(fba, a.vector())),
+         relativeError(Jbb, numericJacobian(fbb, b.vector()))});
     Eigen::Matrix<double, 2, 3> Jp;
     Eigen::Matrix2d Jq;
     const Eigen::Vector2d q(u(rng), u(rng));
     a.act(q, &Jp, &Jq);
-    worst = std::max({worst, relativeError(Jp, numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
-                                                                 return SE2::fromVector(x).act(q);
-                                                               }, a.vector())),
-                      relativeError(Jq, numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
-                                                          return a.act(x);
-                                                        }, q))});
+    worst = std::max(
+        {worst,
+         relativeError(
+             Jp, numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return SE2::fromVector(x).act(q); },
+                                 a.vector())),
+         relativeError(Jq, numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return a.act(x); }, q))});
   }
   EXPECT_LT(worst, 1e-6);
 }
@@ -112,12 +112,13 @@ TEST(Camera, ProjectionJacobiansAndUnprojection) {
   for (int i = 0; i < 2000; ++i) {
     const double z = depth(rng);
     Eigen::Vector3d P(u(rng) * z, u(rng) * z, z);
-    if (i % 10 == 0) P.head<2>() *= 1e-7;  // near the optical axis: KB's series branch
+    if (i % 10 == 0) P.head<2>() *= 1e-7;    // near the optical axis: KB's series branch
     if (i % 10 == 1) P.head<2>().setZero();  // on it
     for (const CameraModel* cam : {static_cast<const CameraModel*>(&pin), static_cast<const CameraModel*>(&kb)}) {
       Eigen::Matrix<double, 2, 3> J;
       const Eigen::Vector2d uv = cam->project(P, &J);
-      const Eigen::MatrixXd N = numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return cam->project(x); }, P, 1e-7);
+      const Eigen::MatrixXd N =
+          numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return cam->project(x); }, P, 1e-7);
       worst = std::max(worst, relativeError(J, N));
       const Eigen::Vector3d ray = cam->unproject(uv);
       worst_round = std::max(worst_round, (ray.normalized() - P.normalized()).norm());

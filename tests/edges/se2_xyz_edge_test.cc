@@ -2,6 +2,8 @@
 // SE(2)-XYZ edge (eqs. 8 to 10): analytic Jacobians against central differences over 1000 random
 // states per variant, the residual against an independent 3-D projection, and the out-of-plane
 // covariance inflation against Monte Carlo.
+#include "rvwo/edges/se2_xyz_edge.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -9,7 +11,6 @@
 #include <random>
 
 #include "../common/numeric.h"
-#include "rvwo/edges/se2_xyz_edge.h"
 
 namespace rvwo {
 namespace {
@@ -34,14 +35,15 @@ Eigen::Vector3d visiblePoint(std::mt19937_64& rng, const Eigen::Vector3d& x, con
   std::uniform_real_distribution<double> depth(0.3, 30), u(-0.55, 0.55);
   const double z = depth(rng);
   const Eigen::Vector3d P_c(u(rng) * z, u(rng) * z, z);
-  const Eigen::Isometry3d T_w_b = Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
+  const Eigen::Isometry3d T_w_b =
+      Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
   return T_w_b * T_b_c * P_c;
 }
 
 // Independent reference: full 3-D pose, explicit transforms.
 template <int N>
-Eigen::Matrix<double, N, 1> reference(const CameraModel& cam, const Eigen::Isometry3d& T_b_c, const Eigen::Isometry3d& T_w_b,
-                                      const Eigen::Vector3d& P_w, double bf) {
+Eigen::Matrix<double, N, 1> reference(const CameraModel& cam, const Eigen::Isometry3d& T_b_c,
+                                      const Eigen::Isometry3d& T_w_b, const Eigen::Vector3d& P_w, double bf) {
   const Eigen::Vector3d P_c = (T_w_b * T_b_c).inverse() * P_w;
   Eigen::Matrix<double, N, 1> h;
   h.template head<2>() = cam.project(P_c);
@@ -74,7 +76,8 @@ void checkJacobians(const CameraModel& cam, double bf, unsigned seed) {
     };
     worst_pose = std::max(worst_pose, relativeError(Jx, numericJacobian(fx, x)));
     worst_point = std::max(worst_point, relativeError(Jp, numericJacobian(fp, P_w)));
-    const Eigen::Isometry3d T_w_b = Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
+    const Eigen::Isometry3d T_w_b =
+        Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
     const auto want = reference<N>(cam, T_b_c, T_w_b, P_w, bf);
     worst_value = std::max(worst_value, (r + z - want).cwiseAbs().maxCoeff());
   }
@@ -117,8 +120,10 @@ void monteCarloInflation(unsigned seed) {
   std::normal_distribution<double> g(0, 1);
   const Eigen::Matrix2d L = noise.sigma_rollpitch.llt().matrixL();
   const Eigen::Vector3d x(1.0, -2.0, 0.7);
-  for (const Eigen::Vector3d& P_c : {Eigen::Vector3d(0.4, -0.3, 2.0), Eigen::Vector3d(-1.0, 0.5, 6.0), Eigen::Vector3d(0.1, 0.2, 1.0)}) {
-    const Eigen::Isometry3d T_w_b0 = Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
+  for (const Eigen::Vector3d& P_c :
+       {Eigen::Vector3d(0.4, -0.3, 2.0), Eigen::Vector3d(-1.0, 0.5, 6.0), Eigen::Vector3d(0.1, 0.2, 1.0)}) {
+    const Eigen::Isometry3d T_w_b0 =
+        Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
     const Eigen::Vector3d P_w = T_w_b0 * T_b_c * P_c;
     typename Se2XyzEdge<N>::Vector h0;
     ASSERT_TRUE(edge.predict(x, P_w, &h0));
@@ -141,7 +146,9 @@ void monteCarloInflation(unsigned seed) {
     const double rel = (S - predicted).norm() / predicted.norm();
     EXPECT_LT(rel, 0.10) << "P_c=" << P_c.transpose() << "\nsample\n" << S << "\npredicted\n" << predicted;
     // Pixel noise adds sigma^2 I on top.
-    EXPECT_NEAR((edge.covariance(x, P_w, 2.0, noise) - predicted - 4.0 * Eigen::Matrix<double, N, N>::Identity()).norm(), 0, 1e-9);
+    EXPECT_NEAR(
+        (edge.covariance(x, P_w, 2.0, noise) - predicted - 4.0 * Eigen::Matrix<double, N, N>::Identity()).norm(), 0,
+        1e-9);
   }
 }
 

@@ -58,12 +58,16 @@ TEST(WheelEdge, JacobiansAgainstNumeric) {
     const double dphi = wrapAngle(xj.z() - xi.z() - 0.5 * randomAngle(rng, 3));
     Eigen::Matrix3d Ji, Jj;
     wheelResidual(xi, xj, dp, dphi, &Ji, &Jj);
-    worst = std::max(worst, relativeError(Ji, numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
-                                                                return wheelResidual(x, xj, dp, dphi);
-                                                              }, xi)));
-    worst = std::max(worst, relativeError(Jj, numericJacobian([&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
-                                                                return wheelResidual(xi, x, dp, dphi);
-                                                              }, xj)));
+    worst = std::max(
+        worst,
+        relativeError(
+            Ji, numericJacobian(
+                    [&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return wheelResidual(x, xj, dp, dphi); }, xi)));
+    worst = std::max(
+        worst,
+        relativeError(
+            Jj, numericJacobian(
+                    [&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return wheelResidual(xi, x, dp, dphi); }, xj)));
   }
   EXPECT_LT(worst, 1e-6);
 }
@@ -85,9 +89,15 @@ TEST(WheelEdge, ResidualZeroAtTruthAndWrapped) {
 struct Motion {
   std::function<double(double)> v, w;  // body speed m/s and turn rate rad/s at time t
 };
-Motion straight() { return {[](double) { return 0.8; }, [](double) { return 0.0; }}; }
-Motion arc() { return {[](double t) { return 0.5 + 0.2 * std::sin(t); }, [](double t) { return 0.4 * std::cos(0.5 * t); }}; }
-Motion spin() { return {[](double) { return 0.0; }, [](double) { return 0.9; }}; }
+Motion straight() {
+  return {[](double) { return 0.8; }, [](double) { return 0.0; }};
+}
+Motion arc() {
+  return {[](double t) { return 0.5 + 0.2 * std::sin(t); }, [](double t) { return 0.4 * std::cos(0.5 * t); }};
+}
+Motion spin() {
+  return {[](double) { return 0.0; }, [](double) { return 0.9; }};
+}
 
 // True pose at t, integrated finely (midpoint twist steps of 1e-4 s) from the identity.
 SE2 truePose(const Motion& m, double t) {
@@ -108,7 +118,8 @@ std::vector<double> times(double rate, double t_end) {
 }
 
 // Sample covariance of (dp, dphi) over Monte Carlo runs against the propagated covariance.
-void expectCovarianceMatches(const std::vector<Eigen::Vector3d>& samples, const Eigen::Matrix3d& predicted, double tol, const char* what) {
+void expectCovarianceMatches(const std::vector<Eigen::Vector3d>& samples, const Eigen::Matrix3d& predicted, double tol,
+                             const char* what) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const auto& s : samples) mean += s / samples.size();
   Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
@@ -139,7 +150,8 @@ TEST_P(WheelMonteCarlo, PoseReadingsCovarianceMatchesSamples) {
     for (std::size_t k = 1; k < t.size(); ++k) {
       const SE2 inc = truth_o[k - 1].between(truth_o[k]);
       const Eigen::Vector3d xi = inc.log();
-      const Eigen::Matrix3d L = noise.poseReadingCovariance(xi.head<2>().norm(), xi.z(), t[k] - t[k - 1]).llt().matrixL();
+      const Eigen::Matrix3d L =
+          noise.poseReadingCovariance(xi.head<2>().norm(), xi.z(), t[k] - t[k - 1]).llt().matrixL();
       const Eigen::Vector3d n = L * Eigen::Vector3d(g(rng), g(rng), g(rng));
       noisy = noisy * SE2(inc.translation() + n.head<2>(), inc.angle() + n.z());
       odo.addPose(t[k], noisy);
@@ -185,7 +197,8 @@ TEST_P(WheelMonteCarlo, EncoderCovarianceMatchesSamples) {
     odo.addWheelAngles(t[0], qn.x(), qn.y(), drive);
     for (std::size_t k = 1; k < t.size(); ++k) {
       const Eigen::Vector2d dq = q[k] - q[k - 1];
-      qn += dq + noise.sigma_wheel * Eigen::Vector2d(std::sqrt(std::fabs(dq.x())) * g(rng), std::sqrt(std::fabs(dq.y())) * g(rng));
+      qn += dq + noise.sigma_wheel *
+                     Eigen::Vector2d(std::sqrt(std::fabs(dq.x())) * g(rng), std::sqrt(std::fabs(dq.y())) * g(rng));
       odo.addWheelAngles(t[k], qn.x(), qn.y(), drive);
     }
     last = odo.integrate(0.0, 2.0);
@@ -296,7 +309,7 @@ TEST(WheelOdometry, BadInputGetsClearErrors) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("timestamps must increase"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(odo.addPose(1.0, SE2(1, 0, 0)), std::invalid_argument);  // repeated time
+  EXPECT_THROW(odo.addPose(1.0, SE2(1, 0, 0)), std::invalid_argument);                    // repeated time
   EXPECT_THROW(odo.addWheelAngles(2.0, 0, 0, DiffDriveParams()), std::invalid_argument);  // mixed kinds
   odo.addPose(2.0, SE2(1, 0, 0));
   EXPECT_THROW(odo.integrate(0.5, 1.5), std::out_of_range);

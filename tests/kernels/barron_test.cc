@@ -1,13 +1,13 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 // BarronKernel: derivatives against central differences on every branch, closed forms at the
 // limits, precision near alpha = 0 and 2 against long double, and the kernel's shape properties.
+#include "rvwo/kernels/barron.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 #include <vector>
-
-#include "rvwo/kernels/barron.h"
 
 namespace rvwo {
 namespace {
@@ -41,7 +41,8 @@ Numeric numericDerivative(const BarronKernel& k, double s, int i) {
   const double eps = std::numeric_limits<double>::epsilon();
   if (s < h) {
     const double f0 = eval(k, s).v[i], f1 = eval(k, s + h).v[i], f2 = eval(k, s + 2 * h).v[i];
-    return {(-3.0 * f0 + 4.0 * f1 - f2) / (2 * h), 8 * eps * (3 * std::fabs(f0) + 4 * std::fabs(f1) + std::fabs(f2)) / (2 * h)};
+    return {(-3.0 * f0 + 4.0 * f1 - f2) / (2 * h),
+            8 * eps * (3 * std::fabs(f0) + 4 * std::fabs(f1) + std::fabs(f2)) / (2 * h)};
   }
   const double fp = eval(k, s + h).v[i], fm = eval(k, s - h).v[i];
   return {(fp - fm) / (2 * h), 8 * eps * (std::fabs(fp) + std::fabs(fm)) / (2 * h)};
@@ -102,7 +103,7 @@ TEST(BarronKernel, ClosedFormsAtTheLimits) {
     near(r.v[1], std::exp(-s / (2 * c2)), "a=-inf rho'", s);
     near(r.v[2], -std::exp(-s / (2 * c2)) / (2 * c2), "a=-inf rho''", s);
 
-    r = eval(BarronKernel(1.0, 0.7), s);  // pseudo-Huber
+    r = eval(BarronKernel(1.0, 0.7), s);                              // pseudo-Huber
     near(r.v[0], 2 * s / (std::sqrt(1 + s / c2) + 1), "a=1 rho", s);  // = 2c^2 (sqrt(1+s/c^2) - 1)
     near(r.v[1], 1 / std::sqrt(1 + s / c2), "a=1 rho'", s);
     near(r.v[2], -1 / (2 * c2 * std::pow(1 + s / c2, 1.5L)), "a=1 rho''", s);
@@ -125,9 +126,8 @@ TEST(BarronKernel, ClosedFormsAtTheLimits) {
 TEST(BarronKernel, GeneralFormulaTendsToTheClosedForms) {
   const struct {
     double special, near, tol;
-  } cases[] = {{2.0, 2.0 - 1e-9, 1e-7}, {2.0, 2.0 + 1e-9, 1e-7}, {1.0, 1.0 + 1e-12, 1e-10},
-               {0.0, 1e-12, 1e-10},     {0.0, -1e-12, 1e-10},     {-2.0, -2.0 + 1e-12, 1e-10},
-               {-kInf, -1e9, 1e-6},     {kInf, 1e9, 1e-6}};
+  } cases[] = {{2.0, 2.0 - 1e-9, 1e-7}, {2.0, 2.0 + 1e-9, 1e-7},     {1.0, 1.0 + 1e-12, 1e-10}, {0.0, 1e-12, 1e-10},
+               {0.0, -1e-12, 1e-10},    {-2.0, -2.0 + 1e-12, 1e-10}, {-kInf, -1e9, 1e-6},       {kInf, 1e9, 1e-6}};
   for (const auto& cs : cases) {
     for (double s : {1e-3, 0.5, 3.0, 20.0}) {
       const Rho a = eval(BarronKernel(cs.special), s), b = eval(BarronKernel(cs.near), s);

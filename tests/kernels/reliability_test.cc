@@ -1,6 +1,8 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 // Reliability model (paper eqs. 4 to 7): the filter against hand-computed values, the shape
 // function at its landmarks, the behaviours the paper promises, and the thread-safe manager.
+#include "rvwo/kernels/reliability.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,7 +10,6 @@
 #include <sstream>
 #include <thread>
 
-#include "rvwo/kernels/reliability.h"
 #include "rvwo/kernels/semantic_priors.h"
 
 namespace rvwo {
@@ -31,7 +32,7 @@ TEST(Reliability, FilterMatchesHandComputation) {
   }
   EXPECT_NEAR(predictMoving(0.5, p), 0.455, 1e-15);
   EXPECT_NEAR(updateMoving(0.3, 0.5), 0.3, 1e-15);  // prior 0.5 carries no evidence
-  EXPECT_EQ(updateMoving(0.0, 1.0), 0.0);            // contradictory certainties: no NaN
+  EXPECT_EQ(updateMoving(0.0, 1.0), 0.0);           // contradictory certainties: no NaN
 }
 
 TEST(Reliability, PersonForThreeFramesIsRejected) {

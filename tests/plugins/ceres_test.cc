@@ -55,13 +55,15 @@ TEST(CeresCosts, GradientCheckerPasses) {
     const double* params[] = {x.data(), P.data()};
     ceres::NumericDiffOptions nd;
     ceres::GradientChecker::ProbeResults results;
-    const Eigen::Matrix2d S = ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono, x, P, 1.5, OutOfPlaneNoise{0.01, Eigen::Matrix2d::Identity() * 1e-4});
+    const Eigen::Matrix2d S = ceres_adapters::Se2XyzCost<2>::sqrtInformation(
+        mono, x, P, 1.5, OutOfPlaneNoise{0.01, Eigen::Matrix2d::Identity() * 1e-4});
     const ceres_adapters::Se2XyzCost<2> cost_m(mono, o.z, S);
     ceres::GradientChecker check_m(&cost_m, &manifolds, nd);
     EXPECT_TRUE(check_m.Probe(params, 1e-7, &results)) << results.error_log;
     Eigen::Vector3d z3;
     stereo.predict(x, P, &z3);
-    const ceres_adapters::Se2XyzCost<3> cost_s(stereo, z3 + Eigen::Vector3d(u(rng), u(rng), u(rng)), Eigen::Matrix3d::Identity());
+    const ceres_adapters::Se2XyzCost<3> cost_s(stereo, z3 + Eigen::Vector3d(u(rng), u(rng), u(rng)),
+                                               Eigen::Matrix3d::Identity());
     ceres::GradientChecker check_s(&cost_s, &manifolds, nd);
     EXPECT_TRUE(check_s.Probe(params, 1e-7, &results)) << results.error_log;
   }
@@ -99,14 +101,15 @@ struct Registration {
   Eigen::Vector2d s_, t_;
 };
 
-Eigen::Vector3d fit(const std::vector<Eigen::Vector2d>& src, const std::vector<Eigen::Vector2d>& dst, ceres::LossFunction* loss,
-                    const Eigen::Vector3d& start) {
+Eigen::Vector3d fit(const std::vector<Eigen::Vector2d>& src, const std::vector<Eigen::Vector2d>& dst,
+                    ceres::LossFunction* loss, const Eigen::Vector3d& start) {
   Eigen::Vector3d x = start;
   ceres::Problem::Options po;
   po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   for (std::size_t i = 0; i < src.size(); ++i) {
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Registration, 2, 3>(new Registration(src[i], dst[i])), loss, x.data());
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Registration, 2, 3>(new Registration(src[i], dst[i])),
+                             loss, x.data());
   }
   ceres::Solver::Options o;
   o.linear_solver_type = ceres::DENSE_QR;
@@ -141,7 +144,8 @@ TEST(CeresBarronLoss, RobustRegistrationWithFortyPercentOutliers) {
   EXPECT_LT(e_welsch, 1e-6);
   EXPECT_LT(e_geman, 1e-3);
   EXPECT_GT(e_ls, 0.1);
-  std::cout << "registration error: alpha=-inf " << e_welsch << ", alpha=-2 " << e_geman << ", least squares " << e_ls << "\n";
+  std::cout << "registration error: alpha=-inf " << e_welsch << ", alpha=-2 " << e_geman << ", least squares " << e_ls
+            << "\n";
 }
 
 // The planar bundle adjustment, solved with Ceres (SE2Manifold on poses, pose 0 fixed).
@@ -153,11 +157,12 @@ struct CeresBA {
     ceres::Problem problem;
     const Se2XyzMonoEdge edge = ba.edge();
     for (const test::Observation& o : ba.observations) {
-      problem.AddResidualBlock(new ceres_adapters::Se2XyzCost<2>(edge, o.z, o.sqrt_information), nullptr, x[o.pose].data(),
-                               p[o.point].data());
+      problem.AddResidualBlock(new ceres_adapters::Se2XyzCost<2>(edge, o.z, o.sqrt_information), nullptr,
+                               x[o.pose].data(), p[o.point].data());
     }
     for (int k = 0; k + 1 < 6; ++k) {
-      problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(ba.wheel[k])), nullptr, x[k].data(), x[k + 1].data());
+      problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(ba.wheel[k])), nullptr, x[k].data(),
+                               x[k + 1].data());
     }
     for (auto& xk : x) problem.SetManifold(xk.data(), new SE2Manifold);
     problem.SetParameterBlockConstant(x[0].data());
@@ -176,7 +181,8 @@ TEST(CeresPlanarBA, NoiseFreeRecoversTheTruth) {
   ASSERT_TRUE(s.summary.IsSolutionUsable()) << s.summary.FullReport();
   double worst = 0;
   for (int k = 0; k < 6; ++k) worst = std::max(worst, (s.x[k] - ba.poses[k]).cwiseAbs().maxCoeff());
-  for (std::size_t i = 0; i < ba.points.size(); ++i) worst = std::max(worst, (s.p[i] - ba.points[i]).cwiseAbs().maxCoeff());
+  for (std::size_t i = 0; i < ba.points.size(); ++i)
+    worst = std::max(worst, (s.p[i] - ba.points[i]).cwiseAbs().maxCoeff());
   EXPECT_LT(worst, 1e-6) << s.summary.BriefReport();
 }
 

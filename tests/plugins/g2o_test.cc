@@ -156,7 +156,8 @@ TEST(G2oPlanarBA, NoiseFreeRecoversTheTruth) {
   const G2oBA s(ba, 8);
   double worst = 0;
   for (int k = 0; k < 6; ++k) worst = std::max(worst, (s.x[k] - ba.poses[k]).cwiseAbs().maxCoeff());
-  for (std::size_t i = 0; i < ba.points.size(); ++i) worst = std::max(worst, (s.p[i] - ba.points[i]).cwiseAbs().maxCoeff());
+  for (std::size_t i = 0; i < ba.points.size(); ++i)
+    worst = std::max(worst, (s.p[i] - ba.points[i]).cwiseAbs().maxCoeff());
   EXPECT_LT(worst, 1e-6);
 }
 

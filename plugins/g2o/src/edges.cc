@@ -32,8 +32,8 @@ template <int N>
 void EdgeSE2XYZ<N>::linearizeOplus() {
   typename Se2XyzEdge<N>::Vector h;
   typename Se2XyzEdge<N>::Jacobian Jx, Jp;
-  if (!core_.predict(poseVector(this->template vertexXnRaw<0>()), this->template vertexXnRaw<1>()->estimate(), &h,
-                     &Jx, &Jp)) {
+  if (!core_.predict(poseVector(this->template vertexXnRaw<0>()), this->template vertexXnRaw<1>()->estimate(), &h, &Jx,
+                     &Jp)) {
     Jx.setZero();
     Jp.setZero();
   }

@@ -17,8 +17,7 @@ class CameraModel {
   virtual ~CameraModel() = default;
   virtual Kind kind() const = 0;
   // Pixel of P_c (z > 0 for the pinhole; any direction within the fisheye's field for KB8).
-  virtual Eigen::Vector2d project(const Eigen::Vector3d& P_c,
-                                  Eigen::Matrix<double, 2, 3>* J = nullptr) const = 0;
+  virtual Eigen::Vector2d project(const Eigen::Vector3d& P_c, Eigen::Matrix<double, 2, 3>* J = nullptr) const = 0;
   // A ray through the pixel: z = 1 for the pinhole, unit length for KB8.
   virtual Eigen::Vector3d unproject(const Eigen::Vector2d& uv) const = 0;
   double fx() const { return fx_; }

@@ -48,14 +48,12 @@ class SE2 {
   Eigen::Matrix2d rotation() const { return rotation2(theta_); }
 
   // this * other. Jacobians of the result's (x, y, theta) w.r.t. each operand's (x, y, theta).
-  SE2 compose(const SE2& other, Eigen::Matrix3d* J_this = nullptr,
-              Eigen::Matrix3d* J_other = nullptr) const;
+  SE2 compose(const SE2& other, Eigen::Matrix3d* J_this = nullptr, Eigen::Matrix3d* J_other = nullptr) const;
   SE2 operator*(const SE2& other) const { return compose(other); }
   // this^-1, Jacobian of its (x, y, theta) w.r.t. this (x, y, theta).
   SE2 inverse(Eigen::Matrix3d* J = nullptr) const;
   // this^-1 * other (the motion from this to other, in this frame).
-  SE2 between(const SE2& other, Eigen::Matrix3d* J_this = nullptr,
-              Eigen::Matrix3d* J_other = nullptr) const;
+  SE2 between(const SE2& other, Eigen::Matrix3d* J_this = nullptr, Eigen::Matrix3d* J_other = nullptr) const;
   // T * p, with Jacobians w.r.t. (x, y, theta) and p.
   Eigen::Vector2d act(const Eigen::Vector2d& p, Eigen::Matrix<double, 2, 3>* J_pose = nullptr,
                       Eigen::Matrix2d* J_point = nullptr) const;
@@ -64,9 +62,7 @@ class SE2 {
   static SE2 exp(const Eigen::Vector3d& xi);
   Eigen::Vector3d log() const;
   // The additive update of the solver vector (g2o VertexSE2): (x + d0, y + d1, wrap(theta + d2)).
-  SE2 oplus(const Eigen::Vector3d& delta) const {
-    return SE2(t_ + delta.head<2>(), theta_ + delta.z());
-  }
+  SE2 oplus(const Eigen::Vector3d& delta) const { return SE2(t_ + delta.head<2>(), theta_ + delta.z()); }
 
   // Interpolation along the constant-twist path from identity to this: exp(f * log(this)).
   SE2 fraction(double f) const { return exp(f * log()); }

@@ -28,7 +28,7 @@ namespace rvwo {
 
 // Motion out of the plane that the SE(2) state ignores.
 struct OutOfPlaneNoise {
-  double sigma_z = 0.0;                                      // m: std of the body's height
+  double sigma_z = 0.0;                                       // m: std of the body's height
   Eigen::Matrix2d sigma_rollpitch = Eigen::Matrix2d::Zero();  // rad^2: covariance of (roll, pitch)
 };
 
@@ -52,8 +52,8 @@ class Se2XyzEdge {
   // Predicted measurement h(x_w_b, P_w) and its Jacobians w.r.t. (x, y, theta) and P_w. False
   // when the point cannot be projected (behind a pinhole camera, or at the camera centre); the
   // outputs are then left unspecified.
-  bool predict(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, Vector* h,
-               Jacobian* J_pose = nullptr, Jacobian* J_point = nullptr) const;
+  bool predict(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, Vector* h, Jacobian* J_pose = nullptr,
+               Jacobian* J_point = nullptr) const;
   // r = h - z, with the Jacobians of h.
   bool residual(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, const Vector& z, Vector* r,
                 Jacobian* J_pose = nullptr, Jacobian* J_point = nullptr) const;
@@ -66,8 +66,8 @@ class Se2XyzEdge {
 
  private:
   // h, dh/dP_b and P_b.
-  bool project(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, Vector* h,
-               Eigen::Matrix<double, N, 3>* dh_dPb, Eigen::Vector3d* P_b) const;
+  bool project(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, Vector* h, Eigen::Matrix<double, N, 3>* dh_dPb,
+               Eigen::Vector3d* P_b) const;
   const CameraModel* camera_;
   Eigen::Isometry3d T_b_c_;
   Eigen::Matrix3d R_c_b_;

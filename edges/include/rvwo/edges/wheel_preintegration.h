@@ -54,13 +54,13 @@ struct DiffDriveParams {
 
 // The preintegrated motion of the body between two times.
 struct WheelDelta {
-  double t0 = 0.0, t1 = 0.0;                       // s
-  Eigen::Vector2d dp = Eigen::Vector2d::Zero();    // m, in the body frame at t0
-  double dphi = 0.0;                               // rad, not wrapped (a full turn stays 2 pi)
+  double t0 = 0.0, t1 = 0.0;                             // s
+  Eigen::Vector2d dp = Eigen::Vector2d::Zero();          // m, in the body frame at t0
+  double dphi = 0.0;                                     // rad, not wrapped (a full turn stays 2 pi)
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of (dp, dphi)
-  double distance = 0.0;                           // m travelled (sum of |ds|)
-  double rotation = 0.0;                           // rad turned (sum of |dphi|)
-  SE2 pose() const { return SE2(dp, dphi); }       // T_b0_b1
+  double distance = 0.0;                                 // m travelled (sum of |ds|)
+  double rotation = 0.0;                                 // rad turned (sum of |dphi|)
+  SE2 pose() const { return SE2(dp, dphi); }             // T_b0_b1
 };
 
 // The accumulator of eqs. 11 to 13, frame-agnostic: it integrates whatever increments it is given.
@@ -69,8 +69,8 @@ class WheelPreintegrator {
   void reset() { *this = WheelPreintegrator(); }
   // One increment (dp, dphi) in the current body frame with its covariance Sigma_n. Optional
   // outputs: the step Jacobians A_k and B_k.
-  void integrate(const Eigen::Vector2d& dp, double dphi, const Eigen::Matrix3d& sigma_n,
-                 Eigen::Matrix3d* A = nullptr, Eigen::Matrix3d* B = nullptr);
+  void integrate(const Eigen::Vector2d& dp, double dphi, const Eigen::Matrix3d& sigma_n, Eigen::Matrix3d* A = nullptr,
+                 Eigen::Matrix3d* B = nullptr);
   const Eigen::Vector2d& dp() const { return dp_; }
   double dphi() const { return dphi_; }
   const Eigen::Matrix3d& covariance() const { return cov_; }
@@ -111,9 +111,9 @@ class WheelOdometry {
   enum class Input { kNone, kPose, kWheelAngles, kWheelSpeeds };
   struct Segment {
     double t0, t1;
-    SE2 increment;              // T_o(t0)_o(t1)
-    Eigen::Matrix3d sigma_n;    // of (dp, dphi)
-    double ds, dphi_abs;        // m, rad: |motion| covered
+    SE2 increment;            // T_o(t0)_o(t1)
+    Eigen::Matrix3d sigma_n;  // of (dp, dphi)
+    double ds, dphi_abs;      // m, rad: |motion| covered
   };
   void checkReading(double t, Input kind, std::initializer_list<double> values);
   void pushWheelIncrement(double t, double dq_left, double dq_right, const DiffDriveParams& drive);

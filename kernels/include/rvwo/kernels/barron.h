@@ -65,13 +65,13 @@ class BarronKernel {
   double c_ = 1.0;
   Branch branch_ = Branch::kOne;
   // Constants of the current alpha and c (names follow the header's formulas).
-  double inv_c2d_ = 1.0;    // 1 / (c^2 d)
-  double scale_ = 2.0;      // 2 c^2 d / a
-  double half_a_ = 0.5;     // a / 2
-  double curv_ = -0.5;      // sign(a - 2) / (2 c^2)
-  double inv_2c2_ = 0.5;    // 1 / (2 c^2)
-  double two_c2_ = 2.0;     // 2 c^2
-  bool near_two_ = false;   // |a - 2| < 0.25: rho' by its own exp (see evaluate)
+  double inv_c2d_ = 1.0;   // 1 / (c^2 d)
+  double scale_ = 2.0;     // 2 c^2 d / a
+  double half_a_ = 0.5;    // a / 2
+  double curv_ = -0.5;     // sign(a - 2) / (2 c^2)
+  double inv_2c2_ = 0.5;   // 1 / (2 c^2)
+  double two_c2_ = 2.0;    // 2 c^2
+  bool near_two_ = false;  // |a - 2| < 0.25: rho' by its own exp (see evaluate)
 };
 
 }  // namespace rvwo

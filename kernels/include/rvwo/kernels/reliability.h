@@ -81,17 +81,20 @@ double reliability(double ps, double po, const ReliabilityParams& p);
 double shapeFromReliability(double pr, const ReliabilityParams& p);
 
 struct LandmarkReliability {
-  double ps = 0.0;     // probability that it moves (filtered)
-  double po = 0.0;     // outlier probability from the latest reprojection error
-  double pr = 1.0;     // reliability
-  double alpha = 1.0;  // Barron shape for its residuals
+  double ps = 0.0;             // probability that it moves (filtered)
+  double po = 0.0;             // outlier probability from the latest reprojection error
+  double pr = 1.0;             // reliability
+  double alpha = 1.0;          // Barron shape for its residuals
   std::uint32_t labelled = 0;  // labelled observations so far
 };
 
 // One landmark's filter state.
 class LandmarkReliabilityFilter {
  public:
-  explicit LandmarkReliabilityFilter(const ReliabilityParams& p) { state_.ps = p.initial_ps; refresh(p); }
+  explicit LandmarkReliabilityFilter(const ReliabilityParams& p) {
+    state_.ps = p.initial_ps;
+    refresh(p);
+  }
   // A frame labelled the landmark with a class of this prior (eqs. 4, 5).
   void observeLabel(double semantic_prior, const ReliabilityParams& p);
   // A new whitened reprojection error (eq. 6).

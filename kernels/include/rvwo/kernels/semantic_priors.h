@@ -30,7 +30,7 @@ class SemanticPriors {
   const std::string& name() const { return name_; }
   std::size_t size() const { return classes_.size(); }
   const std::vector<std::string>& classes() const { return classes_; }
-  const std::string& className(int label) const;  // throws std::out_of_range
+  const std::string& className(int label) const;   // throws std::out_of_range
   int labelOf(std::string_view class_name) const;  // -1 when not in the set
   double prior(int label) const {
     return label >= 0 && static_cast<std::size_t>(label) < priors_.size() ? priors_[label] : kNoEvidence;

@@ -41,8 +41,7 @@ class EdgeSE2XYZ final
   Se2XyzEdge<N> core_;
 };
 
-class EdgeSE2Wheel final
-    : public g2o::BaseBinaryEdge<3, Eigen::Vector3d, g2o::VertexSE2, g2o::VertexSE2> {
+class EdgeSE2Wheel final : public g2o::BaseBinaryEdge<3, Eigen::Vector3d, g2o::VertexSE2, g2o::VertexSE2> {
   using Base = g2o::BaseBinaryEdge<3, Eigen::Vector3d, g2o::VertexSE2, g2o::VertexSE2>;
 
  public:

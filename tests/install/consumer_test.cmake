@@ -1,0 +1,71 @@
+# Installs RVWO into a fresh prefix, then configures, builds and runs a consumer project made of
+# the README's "Use a component in your own SLAM system" code blocks (so the README's example
+# is the one that compiles). A second consumer asks for the kernels component alone and checks
+# that it gets rvwo::kernels and nothing else.
+# Run as: cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -P consumer_test.cmake
+foreach(v BUILD_DIR SOURCE_DIR WORK_DIR)
+  if(NOT DEFINED ${v})
+    message(FATAL_ERROR "consumer_test: ${v} not set")
+  endif()
+endforeach()
+
+function(run)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "consumer_test: '${ARGN}' failed (${rc}):\n${out}\n${err}")
+  endif()
+endfunction()
+
+file(REMOVE_RECURSE "${WORK_DIR}")
+set(prefix "${WORK_DIR}/prefix")
+run(${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${prefix}")
+foreach(f include/rvwo/kernels/barron.h include/rvwo/edges/se2_xyz_edge.h lib/cmake/rvwo/rvwoConfig.cmake)
+  if(NOT EXISTS "${prefix}/${f}")
+    message(FATAL_ERROR "consumer_test: ${f} not installed")
+  endif()
+endforeach()
+
+# The README's code blocks: the ```cmake and ```cpp blocks after the marker line.
+file(READ "${SOURCE_DIR}/README.md" readme)
+string(FIND "${readme}" "<!-- consumer-example -->" at)
+if(at EQUAL -1)
+  message(FATAL_ERROR "consumer_test: README.md has no <!-- consumer-example --> marker")
+endif()
+string(SUBSTRING "${readme}" ${at} -1 readme)
+foreach(lang cmake cpp)
+  string(REGEX MATCH "```${lang}\n(.*)" tail "${readme}")
+  string(FIND "${CMAKE_MATCH_1}" "```" end)
+  string(SUBSTRING "${CMAKE_MATCH_1}" 0 ${end} block_${lang})
+endforeach()
+set(app "${WORK_DIR}/readme_example")
+file(WRITE "${app}/CMakeLists.txt" "${block_cmake}")
+file(WRITE "${app}/main.cpp" "${block_cpp}")
+run(${CMAKE_COMMAND} -S "${app}" -B "${app}/build" -G Ninja "-DCMAKE_PREFIX_PATH=${prefix}")
+run(${CMAKE_COMMAND} --build "${app}/build")
+file(GLOB exe "${app}/build/*")
+execute_process(COMMAND "${app}/build/my_slam" RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "weight")
+  message(FATAL_ERROR "consumer_test: README example ran with ${rc}: ${out}")
+endif()
+message(STATUS "README example printed: ${out}")
+
+# kernels alone: only rvwo::kernels is defined, no solver is looked for.
+set(k "${WORK_DIR}/kernels_only")
+file(WRITE "${k}/CMakeLists.txt" "cmake_minimum_required(VERSION 3.25)
+project(kernels_only CXX)
+find_package(rvwo CONFIG REQUIRED COMPONENTS kernels)
+if(NOT TARGET rvwo::kernels OR TARGET rvwo::ceres OR TARGET rvwo::g2o OR TARGET rvwo::edges)
+  message(FATAL_ERROR \"kernels_only: wrong targets\")
+endif()
+if(DEFINED Ceres_FOUND OR DEFINED g2o_FOUND)
+  message(FATAL_ERROR \"kernels_only: a solver was looked for\")
+endif()
+add_executable(k main.cpp)
+target_link_libraries(k PRIVATE rvwo::kernels)
+")
+file(WRITE "${k}/main.cpp" "#include <rvwo/kernels/barron.h>
+int main() { double rho[3]; rvwo::BarronKernel(-2.0).evaluate(4.0, rho); return rho[1] == 0.25 ? 0 : 1; }
+")
+run(${CMAKE_COMMAND} -S "${k}" -B "${k}/build" -G Ninja "-DCMAKE_PREFIX_PATH=${prefix}")
+run(${CMAKE_COMMAND} --build "${k}/build")
+run("${k}/build/k")
