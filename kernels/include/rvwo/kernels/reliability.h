@@ -30,14 +30,17 @@ namespace rvwo {
 struct ReliabilityParams {
   // ---- Bayes filter on "this landmark moves" (eqs. 4, 5). Settings: Reliability.<Name>.
   // Lambda1: P(moving now | moving at the previous observation). People who move keep moving
-  // between keyframes a few tenths of a second apart, but do stop: 0.9.
-  double lambda1 = 0.9;
+  // between keyframes a few tenths of a second apart, though they do stop: 0.95. Lower values
+  // make the filter forget fast: with 0.9, one missed person label (a segmentation miss, ~10 %
+  // of frames) drops a walker from Ps = 0.99 to 0.48 and hands it back to the map.
+  double lambda1 = 0.95;
   // Lambda2: P(moving now | static at the previous observation). Static structure rarely starts
   // to move; kept small but non-zero so that a parked object that drives off can be caught.
   double lambda2 = 0.01;
   // InitialPs: P_s before the first labelled observation. 0: a landmark is static until evidence
   // says otherwise (the usual SLAM assumption), so a fresh landmark gets alpha = 1 exactly; the
   // first prediction already lifts it to Lambda2, so the evidence of labels is never locked out.
+  // (An unlabelled landmark is never predicted, so it keeps alpha = 1.)
   double initial_ps = 0.0;
   // ---- Outlier probability (eq. 6), in whitened units e = sqrt(chi2), so the thresholds hold
   // for any pixel noise. Eth = sqrt(5.991): 95 % of 2-DoF inliers lie below it (ORB-SLAM's
@@ -46,8 +49,8 @@ struct ReliabilityParams {
   double e_max = 6.0;
   // ---- Weights (eq. 7), Ws + Wo = 1. The semantic channel must be able to reject a landmark by
   // itself: with Ph = 0.9 a landmark seen as a person (Ps -> 0.99) is cut at u > 0.9 only if
-  // Ws > 0.91. Ws = 0.95 rejects after three consistent person labels (Ps = 0.978, u = 0.929),
-  // while two (Ps = 0.775, alpha = -4.8) already weigh it down and one (Ps = 0.16, alpha = 0.51)
+  // Ws > 0.91. Ws = 0.95 rejects after three consistent person labels (Ps = 0.983, u = 0.933),
+  // while two (Ps = 0.785, alpha = -4.9) already weigh it down and one (Ps = 0.16, alpha = 0.51)
   // only softens it, so a single mislabelled frame does not throw a landmark away. The
   // reprojection channel then moves alpha by at most Wo = 0.05 in u (from 1 to 0.88): the error
   // itself is already down-weighted by the kernel. The paper leaves both unstated; the authors'

@@ -6,6 +6,11 @@
 // One BarronLoss per residual block lets each landmark carry its own alpha. setAlpha() may be
 // called between solver iterations (from a ceres::IterationCallback, e.g. AlphaRefreshCallback
 // below), never while Ceres evaluates: Evaluate() reads alpha without locking.
+//
+// alpha = -inf means "rejected": far from the solution its weight rho' = exp(-s/2c^2) is zero. A
+// landmark held only by such residuals has a singular block in the Schur complement and can stall
+// the trust region; take its residual blocks out of the problem (as ORB-SLAM does with outliers)
+// or hold the point constant.
 #pragma once
 
 #include <ceres/iteration_callback.h>
