@@ -69,3 +69,25 @@ int main() { double rho[3]; rvwo::BarronKernel(-2.0).evaluate(4.0, rho); return 
 run(${CMAKE_COMMAND} -S "${k}" -B "${k}/build" -G Ninja "-DCMAKE_PREFIX_PATH=${prefix}")
 run(${CMAKE_COMMAND} --build "${k}/build")
 run("${k}/build/k")
+
+# semantics, when built: OpenCV and ONNX Runtime are found through the installed config.
+if(EXISTS "${prefix}/lib/cmake/rvwo/rvwo_semantics-targets.cmake")
+  set(s "${WORK_DIR}/semantics_only")
+  file(WRITE "${s}/CMakeLists.txt" "cmake_minimum_required(VERSION 3.25)
+project(semantics_only CXX)
+find_package(rvwo CONFIG REQUIRED COMPONENTS semantics)
+add_executable(s main.cpp)
+target_link_libraries(s PRIVATE rvwo::semantics)
+")
+  file(WRITE "${s}/main.cpp" "#include <rvwo/semantics/label_lookup.h>
+int main() {
+  rvwo::Segmentation seg;
+  seg.labels = cv::Mat(10, 10, CV_32S, cv::Scalar(0));
+  seg.labels.at<int>(5, 5) = 15;
+  return rvwo::LabelLookup(seg, {15}, 2).labelAt({6.5f, 5.5f}) == 15 ? 0 : 1;
+}
+")
+  run(${CMAKE_COMMAND} -S "${s}" -B "${s}/build" -G Ninja "-DCMAKE_PREFIX_PATH=${prefix}")
+  run(${CMAKE_COMMAND} --build "${s}/build")
+  run("${s}/build/s")
+endif()
