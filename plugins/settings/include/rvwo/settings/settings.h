@@ -1,0 +1,57 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// Settings in ORB-SLAM3's style: a cv::FileStorage YAML file ("%YAML:1.0" first) with dotted
+// top-level keys (Camera1.fx, Reliability.Ph, Odometry.NoiseX, ...). The readers below fill the
+// core's parameter structs: a key that is present overrides the default, a key that is absent
+// keeps it, a key of the wrong type or an invalid value is an error naming the file and the key.
+//
+//   Reliability.*  ReliabilityParams (rvwo/kernels/reliability.h), e.g. Reliability.Ph: 0.9
+//   Odometry.*     WheelNoise (rvwo/edges/wheel_preintegration.h), e.g. Odometry.NoiseX: 0.02
+//   Semantics.LabelSet: "voc21" | "coco80" | "ade20k150"      (default voc21)
+//   Semantics.PriorsFile: "my_priors.txt"   lines "class: prior", relative to the settings file
+//   Semantics.Prior.<class>: <prior>         one class's prior, e.g. Semantics.Prior.chair: 0.6
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rvwo/edges/wheel_preintegration.h"
+#include "rvwo/kernels/reliability.h"
+#include "rvwo/kernels/semantic_priors.h"
+
+namespace rvwo {
+
+class Settings {
+ public:
+  // Throws std::runtime_error "<path>: ..." when the file is missing or not a FileStorage YAML.
+  static Settings load(const std::string& path);
+  // The same from text (for tests and embedded defaults); `name` is used in messages.
+  static Settings fromString(const std::string& yaml, const std::string& name = "<settings>");
+  ~Settings();
+  Settings(Settings&&) noexcept;
+  Settings& operator=(Settings&&) noexcept;
+
+  const std::string& path() const { return path_; }
+  bool has(const std::string& key) const;
+  // Absent: std::nullopt. Present but not a number (or a string): std::invalid_argument naming it.
+  std::optional<double> number(const std::string& key) const;
+  std::optional<std::string> text(const std::string& key) const;
+  // Present and a number, or std::invalid_argument "<path>: missing key <key>".
+  double requireNumber(const std::string& key) const;
+  // Every top-level key that starts with prefix.
+  std::vector<std::string> keysWithPrefix(const std::string& prefix) const;
+
+ private:
+  Settings();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::string path_;
+};
+
+ReliabilityParams readReliability(const Settings& s, ReliabilityParams defaults = {});
+WheelNoise readWheelNoise(const Settings& s, WheelNoise defaults = {});
+SemanticPriors readSemanticPriors(const Settings& s);
+
+}  // namespace rvwo

@@ -1,0 +1,135 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+#include "rvwo/settings/settings.h"
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/core.hpp>
+#include <stdexcept>
+
+namespace rvwo {
+
+struct Settings::Impl {
+  cv::FileStorage fs;
+};
+
+Settings::Settings() : impl_(std::make_unique<Impl>()) {}
+Settings::~Settings() = default;
+Settings::Settings(Settings&&) noexcept = default;
+Settings& Settings::operator=(Settings&&) noexcept = default;
+
+Settings Settings::load(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw std::runtime_error(path + ": settings file not found");
+  Settings s;
+  s.path_ = path;
+  try {
+    if (!s.impl_->fs.open(path, cv::FileStorage::READ)) throw std::runtime_error("cannot open");
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(path + ": not a settings YAML file (it must start with %YAML:1.0): " + e.err);
+  } catch (const std::runtime_error&) {
+    throw std::runtime_error(path + ": cannot be read as a settings YAML file");
+  }
+  return s;
+}
+
+Settings Settings::fromString(const std::string& yaml, const std::string& name) {
+  Settings s;
+  s.path_ = name;
+  try {
+    s.impl_->fs.open(yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(name + ": not a settings YAML text: " + e.err);
+  }
+  return s;
+}
+
+bool Settings::has(const std::string& key) const { return !impl_->fs[key].empty() && !impl_->fs[key].isNone(); }
+
+std::optional<double> Settings::number(const std::string& key) const {
+  const cv::FileNode n = impl_->fs[key];
+  if (n.empty() || n.isNone()) return std::nullopt;
+  if (!n.isReal() && !n.isInt()) throw std::invalid_argument(path_ + ": " + key + " must be a number");
+  return static_cast<double>(n);
+}
+
+std::optional<std::string> Settings::text(const std::string& key) const {
+  const cv::FileNode n = impl_->fs[key];
+  if (n.empty() || n.isNone()) return std::nullopt;
+  if (!n.isString()) throw std::invalid_argument(path_ + ": " + key + " must be a string");
+  return static_cast<std::string>(n);
+}
+
+double Settings::requireNumber(const std::string& key) const {
+  const auto v = number(key);
+  if (!v) throw std::invalid_argument(path_ + ": missing key " + key);
+  return *v;
+}
+
+std::vector<std::string> Settings::keysWithPrefix(const std::string& prefix) const {
+  std::vector<std::string> out;
+  for (const std::string& k : impl_->fs.root().keys()) {
+    if (k.rfind(prefix, 0) == 0) out.push_back(k);
+  }
+  return out;
+}
+
+ReliabilityParams readReliability(const Settings& s, ReliabilityParams p) {
+  for (const std::string& key : ReliabilityParams::keys()) {
+    if (const auto v = s.number(key)) p.set(key, *v);
+  }
+  for (const std::string& key : s.keysWithPrefix("Reliability.")) {
+    if (!p.get(key)) throw std::invalid_argument(s.path() + ": unknown key " + key);
+  }
+  try {
+    p.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(s.path() + ": " + e.what());
+  }
+  return p;
+}
+
+WheelNoise readWheelNoise(const Settings& s, WheelNoise n) {
+  const std::pair<const char*, double WheelNoise::*> keys[] = {
+      {"Odometry.NoiseX", &WheelNoise::sigma_x},         {"Odometry.NoiseY", &WheelNoise::sigma_y},
+      {"Odometry.NoiseRot", &WheelNoise::sigma_phi},     {"Odometry.NoiseRotPerMetre", &WheelNoise::sigma_phi_s},
+      {"Odometry.NoiseWheel", &WheelNoise::sigma_wheel}, {"Odometry.NoiseFloorP", &WheelNoise::floor_p},
+      {"Odometry.NoiseFloorRot", &WheelNoise::floor_phi}};
+  for (const auto& [key, member] : keys) {
+    if (const auto v = s.number(key)) n.*member = *v;
+  }
+  try {
+    n.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(s.path() + ": " + e.what());
+  }
+  return n;
+}
+
+SemanticPriors readSemanticPriors(const Settings& s) {
+  const std::string set = s.text("Semantics.LabelSet").value_or("voc21");
+  SemanticPriors priors = [&] {
+    try {
+      return SemanticPriors::builtin(set);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(s.path() + ": Semantics.LabelSet: " + e.what());
+    }
+  }();
+  if (const auto file = s.text("Semantics.PriorsFile")) {
+    std::filesystem::path p(*file);
+    if (p.is_relative()) p = std::filesystem::path(s.path()).parent_path() / p;
+    std::ifstream in(p);
+    if (!in) throw std::invalid_argument(s.path() + ": Semantics.PriorsFile '" + p.string() + "' cannot be read");
+    priors.overrideFrom(in, p.string());
+  }
+  const std::string prefix = "Semantics.Prior.";
+  for (const std::string& key : s.keysWithPrefix(prefix)) {
+    try {
+      priors.set(key.substr(prefix.size()), *s.number(key));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(s.path() + ": " + key + ": " + e.what());
+    }
+  }
+  return priors;
+}
+
+}  // namespace rvwo
