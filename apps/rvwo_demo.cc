@@ -21,7 +21,6 @@
 #include <ceres/ceres.h>
 #include <glog/logging.h>
 #include <mrpt/3rdparty/tclap/CmdLine.h>
-#include <mrpt/img/CImage.h>
 
 #include <Eigen/Geometry>
 #include <chrono>
@@ -40,6 +39,7 @@
 #include "rvwo/edges/wheel_preintegration.h"
 #include "rvwo/kernels/reliability.h"
 #include "rvwo/kernels/semantic_priors.h"
+#include "support/plot.h"
 
 namespace {
 
@@ -364,38 +364,24 @@ RunResult runOnce(unsigned run_seed, double seconds, int n_walkers, const std::s
   for (int m = 0; m < 4; ++m) result.ate[m] = ate(*trajectories[m], truth);
   if (plot_path.empty()) return result;
   // ---- plot ----
-  mrpt::img::CImage img(900, 720, mrpt::img::CH_RGB);
-  img.filledRectangle(0, 0, 899, 719, mrpt::img::TColor(255, 255, 255));
-  auto px = [](const Eigen::Vector2d& p) { return Eigen::Vector2i(int(450 + 65 * p.x()), int(360 - 65 * p.y())); };
-  auto draw = [&](const std::vector<rvwo::SE2>& t, mrpt::img::TColor c, int width) {
-    for (std::size_t k = 0; k + 1 < t.size(); ++k) {
-      const Eigen::Vector2i a = px(t[k].translation()), b = px(t[k + 1].translation());
-      img.line(a.x(), a.y(), b.x(), b.y(), c, width);
-    }
-  };
+  rvwo::apps::Plot plot("rvwo-demo: trajectories from above (seed " + std::to_string(run_seed) + ")", "x [m]", "y [m]",
+                        true);
+  std::vector<Eigen::Vector2d> walls;
   for (const Landmark& L : landmarks) {
-    if (L.walker < 0) {
-      const Eigen::Vector2i p = px(L.p.head<2>());
-      img.drawCircle(p.x(), p.y(), 1, mrpt::img::TColor(190, 190, 190));
-    }
+    if (L.walker < 0) walls.push_back(L.p.head<2>());
   }
-  draw(wheel_only, mrpt::img::TColor(230, 140, 0), 2);
-  draw(vo, mrpt::img::TColor(60, 90, 230), 2);
-  draw(vw, mrpt::img::TColor(170, 60, 200), 2);
-  draw(vwa, mrpt::img::TColor(0, 160, 60), 2);
-  draw(truth, mrpt::img::TColor(0, 0, 0), 1);
-  const std::pair<const char*, mrpt::img::TColor> legend[] = {{"ground truth", {0, 0, 0}},
-                                                              {"wheel (dead reckoning)", {230, 140, 0}},
-                                                              {"vo-huber", {60, 90, 230}},
-                                                              {"vw-huber", {170, 60, 200}},
-                                                              {"vw-adaptive (RVWO)", {0, 160, 60}}};
-  for (int i = 0; i < 5; ++i) {
-    img.filledRectangle(20, 20 + 18 * i, 40, 30 + 18 * i, legend[i].second);
-    img.textOut(48, 18 + 18 * i, legend[i].first, mrpt::img::TColor(0, 0, 0));
-  }
-  img.textOut(20, 700, "rvwo-demo: trajectories in the room (grey: wall landmarks), 1 m = 65 px",
-              mrpt::img::TColor(0, 0, 0));
-  if (!img.saveToFile(plot_path)) throw std::runtime_error("cannot write " + plot_path);
+  plot.add(walls, mrpt::img::TColor(190, 190, 190), "wall landmarks", 0);
+  auto xy = [](const std::vector<rvwo::SE2>& t) {
+    std::vector<Eigen::Vector2d> out;
+    for (const rvwo::SE2& T : t) out.push_back(T.translation());
+    return out;
+  };
+  plot.add(xy(wheel_only), mrpt::img::TColor(230, 140, 0), "wheel (dead reckoning)");
+  plot.add(xy(vo), mrpt::img::TColor(60, 90, 230), "vo-huber");
+  plot.add(xy(vw), mrpt::img::TColor(170, 60, 200), "vw-huber");
+  plot.add(xy(vwa), mrpt::img::TColor(0, 160, 60), "vw-adaptive (RVWO)");
+  plot.add(xy(truth), mrpt::img::TColor(0, 0, 0), "ground truth", 1);
+  plot.save(plot_path, 1000, 800);
   return result;
 }
 
