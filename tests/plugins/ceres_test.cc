@@ -148,6 +148,52 @@ TEST(CeresBarronLoss, RobustRegistrationWithFortyPercentOutliers) {
             << "\n";
 }
 
+// Per-residual alphas changed between iterations: each residual's alpha follows its current
+// error (1 while it fits, -inf once it is far out), as the reliability model does between rounds.
+TEST(CeresBarronLoss, AlphaRefreshedBetweenIterations) {
+  std::mt19937_64 rng(6);
+  std::uniform_real_distribution<double> u(-3, 3);
+  const Eigen::Vector3d truth(0.2, 0.1, -0.3);
+  std::vector<Eigen::Vector2d> src, dst;
+  for (int i = 0; i < 60; ++i) {
+    src.emplace_back(u(rng), u(rng));
+    dst.push_back(rotation2(truth.z()) * src.back() + truth.head<2>() +
+                  (i % 4 == 0 ? Eigen::Vector2d(15, -9) : Eigen::Vector2d::Zero()));
+  }
+  Eigen::Vector3d x = truth + Eigen::Vector3d(0.1, -0.1, 0.05);
+  std::vector<std::unique_ptr<BarronLoss>> losses;
+  std::vector<BarronLoss*> raw;
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  for (std::size_t i = 0; i < src.size(); ++i) {
+    losses.push_back(std::make_unique<BarronLoss>(1.0));
+    raw.push_back(losses.back().get());
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Registration, 2, 3>(new Registration(src[i], dst[i])),
+                             raw.back(), x.data());
+  }
+  int refreshes = 0;
+  ceres_adapters::AlphaRefreshCallback callback(raw, [&](BarronLoss& loss, std::size_t i) {
+    const Eigen::Vector2d r = dst[i] - (rotation2(x.z()) * src[i] + x.head<2>());
+    loss.setAlpha(r.norm() > 3.0 ? -kInf : 1.0);
+    ++refreshes;
+  });
+  ceres::Solver::Options o;
+  o.linear_solver_type = ceres::DENSE_QR;
+  o.update_state_every_iteration = true;  // the callback reads x
+  o.callbacks.push_back(&callback);
+  o.function_tolerance = o.gradient_tolerance = 1e-16;
+  o.parameter_tolerance = 1e-14;
+  ceres::Solver::Summary summary;
+  ceres::Solve(o, &problem, &summary);
+  EXPECT_GT(refreshes, 0);
+  EXPECT_EQ(refreshes % 60, 0);
+  int rejected = 0;
+  for (std::size_t i = 0; i < raw.size(); ++i) rejected += std::isinf(raw[i]->alpha());
+  EXPECT_EQ(rejected, 15);  // exactly the outliers
+  EXPECT_LT((x - truth).norm(), 1e-8);
+}
+
 // The planar bundle adjustment, solved with Ceres (SE2Manifold on poses, pose 0 fixed).
 struct CeresBA {
   std::vector<Eigen::Vector3d> x, p;
