@@ -1,0 +1,70 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+#include "rawlog.h"
+
+#include <mrpt/img/CImage.h>
+#include <mrpt/obs/CActionCollection.h>
+#include <mrpt/obs/CSensoryFrame.h>
+#include <mrpt/serialization/CArchive.h>
+
+#include <filesystem>
+
+namespace rvwo::apps {
+
+std::string RawlogWriter::imagesFolder(const std::string& rawlog_path) {
+  std::filesystem::path p(rawlog_path);
+  return (p.parent_path() / (p.stem().string() + "_Images")).string();
+}
+
+RawlogWriter::RawlogWriter(const std::string& path, int compression) : path_(path) {
+  if (!out_.open(path, compression)) throw std::runtime_error(path + ": cannot be created");
+}
+
+void RawlogWriter::write(const mrpt::obs::CObservation& observation) {
+  try {
+    auto arch = mrpt::serialization::archiveFrom(out_);
+    arch << observation;
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path_ + ": writing record " + std::to_string(count_) + " failed: " + e.what());
+  }
+  ++count_;
+}
+
+RawlogReader::RawlogReader(const std::string& path) : path_(path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw std::runtime_error(path + ": rawlog not found");
+  if (!in_.open(path)) throw std::runtime_error(path + ": cannot be opened");
+  mrpt::img::CImage::setImagesPathBase(RawlogWriter::imagesFolder(path));
+}
+
+std::optional<mrpt::obs::CObservation::Ptr> RawlogReader::next() {
+  while (pending_.empty()) {
+    const uint64_t before = in_.getPosition();
+    mrpt::serialization::CSerializable::Ptr object;
+    try {
+      auto arch = mrpt::serialization::archiveFrom(in_);
+      arch >> object;
+    } catch (const std::exception& e) {
+      // No byte read and at the end of the file: it ends at a record boundary. Anything else (a
+      // record cut short, or bytes zlib or the deserializer reject) is a broken record.
+      if (in_.getPosition() == before && in_.checkEOF()) return std::nullopt;
+      std::string what = e.what();
+      const auto nl = what.find('\n');  // MRPT's messages carry a stack trace after the first line
+      if (nl != std::string::npos) what = what.substr(0, nl);
+      throw RawlogError(path_, count_, "truncated or corrupt (" + what + ")");
+    }
+    if (auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(object)) {
+      pending_.push_back(obs);
+    } else if (auto sf = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(object)) {
+      for (const auto& o : *sf) pending_.push_back(o);  // MRPT's (action, frame) format: flattened
+    } else if (!std::dynamic_pointer_cast<mrpt::obs::CActionCollection>(object)) {
+      throw RawlogError(path_, count_, std::string("not an observation: ") + object->GetRuntimeClass()->className);
+    }
+    if (pending_.empty()) ++count_;  // an action or an empty frame
+  }
+  auto obs = pending_.front();
+  pending_.pop_front();
+  ++count_;
+  return obs;
+}
+
+}  // namespace rvwo::apps

@@ -1,0 +1,66 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// Rawlog files (MRPT's "observations only" format: one serialized CObservation after another,
+// gz-compressed), as docs/rawlog.md lays them out for RVWO.
+//
+// External images (CImage::setExternalStorage) are looked for in "<rawlog without .rawlog>_Images/"
+// beside the file, MRPT's convention; the reader sets that folder itself
+// (CRawlog::detectImagesDirectory is broken in MRPT 2.5.8).
+#pragma once
+
+#include <mrpt/io/CFileGZInputStream.h>
+#include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/obs/CObservation.h>
+
+#include <deque>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+namespace rvwo::apps {
+
+// A record that cannot be read; index is the 0-based number of the record.
+class RawlogError : public std::runtime_error {
+ public:
+  RawlogError(const std::string& path, std::size_t index, const std::string& what)
+      : std::runtime_error(path + ": record " + std::to_string(index) + ": " + what), index_(index) {}
+  std::size_t index() const { return index_; }
+
+ private:
+  std::size_t index_;
+};
+
+class RawlogWriter {
+ public:
+  // Throws std::runtime_error when the file cannot be created. compression: 0 (none) to 9.
+  explicit RawlogWriter(const std::string& path, int compression = 1);
+  void write(const mrpt::obs::CObservation& observation);
+  std::size_t count() const { return count_; }
+  // The folder external images of this rawlog belong in (created on demand by the caller).
+  static std::string imagesFolder(const std::string& rawlog_path);
+
+ private:
+  std::string path_;
+  mrpt::io::CFileGZOutputStream out_;
+  std::size_t count_ = 0;
+};
+
+class RawlogReader {
+ public:
+  // Throws std::runtime_error when the file cannot be opened.
+  explicit RawlogReader(const std::string& path);
+  // The next observation, or std::nullopt at the end. A truncated or corrupt record throws
+  // RawlogError naming its index; what was returned before stays valid. (zlib inflates in
+  // chunks: records in the same chunk as damaged bytes are lost with them.)
+  std::optional<mrpt::obs::CObservation::Ptr> next();
+  std::size_t count() const { return count_; }  // records read so far
+
+ private:
+  std::string path_;
+  mrpt::io::CFileGZInputStream in_;
+  std::size_t count_ = 0;
+  std::deque<mrpt::obs::CObservation::Ptr> pending_;  // from a sensory frame, flattened
+};
+
+}  // namespace rvwo::apps
