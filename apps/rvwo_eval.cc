@@ -58,8 +58,9 @@ int main(int argc, char** argv) {
     if (!(max_dt.getValue() >= 0)) throw std::invalid_argument("--max-dt must be >= 0");
 
     const auto mode = rvwo::apps::parseAlignment(align.getValue());
-    const auto ref = rvwo::apps::readTum(gt.getValue(), first_block.getValue());
-    const auto e = rvwo::apps::readTum(est.getValue(), first_block.getValue());
+    const int block = first_block.getValue() ? 1 : 0;
+    const auto ref = rvwo::apps::readTum(gt.getValue(), block);
+    const auto e = rvwo::apps::readTum(est.getValue(), block);
     const auto pairs = rvwo::apps::associate(ref, e, max_dt.getValue());
     if (pairs.size() < 3) {
       throw std::runtime_error("only " + std::to_string(pairs.size()) + " poses pair up within " +

@@ -12,22 +12,23 @@
 
 namespace rvwo::apps {
 
-Trajectory readTum(const std::string& path, bool only_first_block) {
+Trajectory readTum(const std::string& path, int block, bool lenient) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot be read");
   Trajectory out;
   std::string line;
-  bool in_block = false;
+  int current = 0;  // blocks seen so far
   for (int n = 1; std::getline(in, line); ++n) {
     const auto first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
     if (line.compare(first, 4, "seq:") == 0) {
-      if (only_first_block && in_block) break;
-      in_block = true;
+      if (block > 0 && current == block) break;
+      ++current;
       continue;
     }
     const auto token_end = line.find_first_of(" \t", first);
     if (line[std::min(token_end, line.size()) - 1] == ':') continue;  // "scene: home" and such (OpenLORIS)
+    if (block > 0 && std::max(current, 1) != block) continue;         // poses before any "seq:" are block 1
     std::replace(line.begin(), line.end(), ',', ' ');
     std::istringstream s(line);
     double v[8];
@@ -47,6 +48,7 @@ Trajectory readTum(const std::string& path, bool only_first_block) {
       throw std::runtime_error(path + ":" + std::to_string(n) + ": quaternion of norm " + std::to_string(q.norm()));
     }
     if (!out.empty() && !(v[0] > out.back().t)) {
+      if (lenient) continue;
       throw std::runtime_error(path + ":" + std::to_string(n) + ": timestamps must increase");
     }
     StampedPose p;
@@ -54,9 +56,11 @@ Trajectory readTum(const std::string& path, bool only_first_block) {
     p.T.linear() = q.normalized().toRotationMatrix();
     p.T.translation() << v[1], v[2], v[3];
     out.push_back(p);
-    in_block = true;
   }
-  if (out.empty()) throw std::runtime_error(path + ": no poses");
+  if (out.empty()) {
+    throw std::runtime_error(path +
+                             (block > 0 ? ": no poses in block " + std::to_string(block) : std::string(": no poses")));
+  }
   return out;
 }
 

@@ -27,9 +27,11 @@ struct StampedPose {
 using Trajectory = std::vector<StampedPose>;
 
 // Reads a TUM file. Separator: spaces or commas. Lines "key: value" are metadata (OpenLORIS:
-// "scene: home"); "seq: N" starts a block, and with only_first_block set the second one ends the
-// reading. Throws std::runtime_error "<file>:<line>: <what>".
-Trajectory readTum(const std::string& path, bool only_first_block = false);
+// "scene: home"); each "seq: N" line starts a block. block 0 reads every pose, block k >= 1 only
+// those of the k-th block. Throws std::runtime_error "<file>:<line>: <what>".
+// lenient: rows whose timestamp does not increase (real recordings repeat some) are skipped
+// instead of being an error.
+Trajectory readTum(const std::string& path, int block = 0, bool lenient = false);
 // Writes it (full precision); throws std::runtime_error when the file cannot be written.
 void writeTum(const std::string& path, const Trajectory& trajectory);
 

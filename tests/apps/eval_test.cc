@@ -142,8 +142,10 @@ TEST(Eval, TumParsingErrorsNameFileAndLine) {
   const std::string f = (dir / "blocks.txt").string();
   std::ofstream(f)
       << "scene: home\nframe: base_link\n\nseq: 1\n1 0 0 0 0 0 0 1\n2 1 0 0 0 0 0 1\nseq: 2\n9 5 0 0 0 0 0 1\n";
-  EXPECT_EQ(readTum(f, true).size(), 2u);
-  EXPECT_EQ(readTum(f, false).size(), 3u);
+  EXPECT_EQ(readTum(f, 1).size(), 2u);
+  EXPECT_EQ(readTum(f, 2).size(), 1u);
+  EXPECT_EQ(readTum(f, 0).size(), 3u);
+  EXPECT_THROW(readTum(f, 3), std::runtime_error);
 }
 
 TEST(Eval, ProgramEndToEndWithJson) {

@@ -1,0 +1,251 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+#include "scene.h"
+
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+namespace rvwo::sim {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Bilinear texture lookup at texel coordinates (x, y), clamped to the texture.
+inline double sample(const cv::Mat& tex, double x, double y) {
+  x = std::min(std::max(x - 0.5, 0.0), tex.cols - 1.001);
+  y = std::min(std::max(y - 0.5, 0.0), tex.rows - 1.001);
+  const int ix = static_cast<int>(x), iy = static_cast<int>(y);
+  const double fx = x - ix, fy = y - iy;
+  const uint8_t* r0 = tex.ptr<uint8_t>(iy);
+  const uint8_t* r1 = tex.ptr<uint8_t>(iy + 1);
+  return (1 - fy) * ((1 - fx) * r0[ix] + fx * r0[ix + 1]) + fy * ((1 - fx) * r1[ix] + fx * r1[ix + 1]);
+}
+
+// Pixel noise from a counter-based hash (splitmix64) of (seed, pixel): the same bytes whatever
+// the thread count. One hash gives four 16-bit uniforms; their sum, scaled to unit variance, is
+// close to Gaussian (Irwin-Hall).
+inline float hashNoise(uint64_t seed, uint64_t pixel) {
+  uint64_t h = seed * 0x9E3779B97F4A7C15ull + pixel * 0xBF58476D1CE4E5B9ull + 0x9E3779B97F4A7C15ull;
+  h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
+  h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
+  h ^= h >> 31;
+  const float sum = static_cast<float>((h & 0xFFFF) + ((h >> 16) & 0xFFFF) + ((h >> 32) & 0xFFFF) + (h >> 48));
+  return (sum * (1.0f / 65536.0f) - 2.0f) * 1.7320508f;  // variance of the sum of four U(0,1): 1/3
+}
+
+}  // namespace
+
+Eigen::Vector2d Walker::at(double t) const {
+  const double len = (b - a).norm();
+  if (len <= 0) return a;
+  double s = std::fmod(speed * t + phase, 2 * len);
+  if (s < 0) s += 2 * len;
+  return a + (b - a) * ((s < len ? s : 2 * len - s) / len);
+}
+
+int Scene::makeTexture(int w, int h, std::mt19937_64& rng, bool clothes) {
+  std::uniform_int_distribution<int> grey(40, 215), size(clothes ? 6 : 8, clothes ? 18 : 40);
+  cv::Mat tex(h, w, CV_8U, cv::Scalar(grey(rng)));
+  std::vector<cv::Rect> rects;
+  cv::Mat taken(h, w, CV_8U, cv::Scalar(0));
+  const int tries = w * h / 150;
+  for (int i = 0; i < tries; ++i) {
+    const int rw = size(rng), rh = size(rng);
+    if (rw + 16 >= w || rh + 16 >= h) continue;  // 8 texels from the surface's borders, like between rectangles
+    const cv::Rect r(std::uniform_int_distribution<int>(8, w - rw - 8)(rng),
+                     std::uniform_int_distribution<int>(8, h - rh - 8)(rng), rw, rh);
+    // 8 texels (8 cm) of background around every rectangle: corners stay visible and apart, so a
+    // detector (and the geometry test) sees one corner at a time.
+    const cv::Rect gap(r.x - 8, r.y - 8, r.width + 16, r.height + 16);
+    if (cv::countNonZero(taken(gap & cv::Rect(0, 0, w, h))) > 0) continue;
+    int g = grey(rng);
+    const int back = tex.at<uint8_t>(0, 0);
+    if (std::abs(g - back) < 50) g = back > 127 ? back - 90 : back + 90;  // contrast for corners
+    tex(r).setTo(g);
+    taken(r).setTo(1);
+    rects.push_back(r);
+  }
+  textures_.push_back(tex);
+  rects_.push_back(rects);
+  return static_cast<int>(textures_.size()) - 1;
+}
+
+void Scene::addSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Eigen::Vector3d& v, double w, double h,
+                       double tpm, std::mt19937_64& rng) {
+  const int tex =
+      makeTexture(std::max(8, static_cast<int>(w * tpm)), std::max(8, static_cast<int>(h * tpm)), rng, false);
+  surfaces_.push_back({o, u, v, u.cross(v), w, h, tpm, tex});
+  for (const cv::Rect& r : rects_[tex]) {
+    for (const cv::Point& c : {r.tl(), cv::Point(r.x + r.width, r.y), r.br(), cv::Point(r.x, r.y + r.height)}) {
+      landmarks_.push_back(o + u * (c.x / tpm) + v * (c.y / tpm));
+      landmark_normals_.push_back(u.cross(v));
+    }
+  }
+}
+
+void Scene::addBox(double cx, double cy, double w, double d, double h, std::mt19937_64& rng) {
+  Box b{{cx - w / 2, cy - d / 2, 0}, {cx + w / 2, cy + d / 2, h}, {}};
+  const Eigen::Vector3d X = Eigen::Vector3d::UnitX(), Y = Eigen::Vector3d::UnitY(), Z = Eigen::Vector3d::UnitZ();
+  const double tpm = 100;
+  b.face[0] = static_cast<int>(surfaces_.size());
+  addSurface({b.lo[0], b.hi[1], h}, -Y, -Z, d, h, tpm, rng);
+  b.face[1] = static_cast<int>(surfaces_.size());
+  addSurface({b.hi[0], b.lo[1], h}, Y, -Z, d, h, tpm, rng);
+  b.face[2] = static_cast<int>(surfaces_.size());
+  addSurface({b.lo[0], b.lo[1], h}, X, -Z, w, h, tpm, rng);
+  b.face[3] = static_cast<int>(surfaces_.size());
+  addSurface({b.hi[0], b.hi[1], h}, -X, -Z, w, h, tpm, rng);
+  b.face[4] = -1;
+  b.face[5] = static_cast<int>(surfaces_.size());
+  addSurface({b.lo[0], b.lo[1], h}, X, Y, w, d, tpm, rng);
+  boxes_.push_back(b);
+}
+
+Scene::Scene(double size_x, double size_y, double h, unsigned seed, int furniture)
+    : sx_(size_x), sy_(size_y), h_(h), seed_(seed) {
+  std::mt19937_64 rng(seed);
+  const double x0 = -sx_ / 2, x1 = sx_ / 2, y0 = -sy_ / 2, y1 = sy_ / 2;
+  const Eigen::Vector3d X = Eigen::Vector3d::UnitX(), Y = Eigen::Vector3d::UnitY(), Z = Eigen::Vector3d::UnitZ();
+  const double tpm = 100;  // texels per metre: 1 cm texels
+  room_face_[0] = static_cast<int>(surfaces_.size());
+  addSurface({x0, y1, h}, -Y, -Z, sy_, h, tpm, rng);  // wall at -x, seen from inside
+  room_face_[1] = static_cast<int>(surfaces_.size());
+  addSurface({x1, y0, h}, Y, -Z, sy_, h, tpm, rng);
+  room_face_[2] = static_cast<int>(surfaces_.size());
+  addSurface({x0, y0, h}, X, -Z, sx_, h, tpm, rng);
+  room_face_[3] = static_cast<int>(surfaces_.size());
+  addSurface({x1, y1, h}, -X, -Z, sx_, h, tpm, rng);
+  room_face_[4] = static_cast<int>(surfaces_.size());
+  addSurface({x0, y0, 0}, X, Y, sx_, sy_, 50, rng);  // floor: 2 cm texels
+  room_face_[5] = static_cast<int>(surfaces_.size());
+  addSurface({x0, y1, h}, X, -Y, sx_, sy_, 25, rng);  // ceiling: 4 cm texels
+  // Furniture along the walls, within 0.9 m of them, leaving the middle free for the robot.
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < furniture; ++i) {
+    const double w = 0.4 + 0.8 * u(rng), d = 0.3 + 0.3 * u(rng), bh = 0.4 + 1.2 * u(rng);
+    const int wall = i % 4;
+    const double s = u(rng);
+    if (wall == 0) addBox(x0 + d / 2 + 0.05, y0 + 1 + s * (sy_ - 2), d, w, bh, rng);
+    if (wall == 1) addBox(x1 - d / 2 - 0.05, y0 + 1 + s * (sy_ - 2), d, w, bh, rng);
+    if (wall == 2) addBox(x0 + 1 + s * (sx_ - 2), y0 + d / 2 + 0.05, w, d, bh, rng);
+    if (wall == 3) addBox(x0 + 1 + s * (sx_ - 2), y1 - d / 2 - 0.05, w, d, bh, rng);
+  }
+}
+
+void Scene::addWalker(const Walker& w) {
+  std::mt19937_64 rng(seed_ * 7919u + walkers_.size() + 1);
+  walkers_.push_back(w);
+  // Clothes: around the cylinder (2 pi r) by its height, 1 cm texels.
+  walker_texture_.push_back(
+      makeTexture(static_cast<int>(2 * M_PI * w.radius * 100), static_cast<int>(w.height * 100), rng, true));
+}
+
+cv::Mat Scene::rayTable(const CameraModel& camera, int width, int height) {
+  cv::Mat rays(height, width, CV_32FC3);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector3d r = camera.unproject(Eigen::Vector2d(x, y)).normalized();
+      rays.at<cv::Vec3f>(y, x) =
+          cv::Vec3f(static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()));
+    }
+  }
+  return rays;
+}
+
+Render Scene::render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double t, const RenderOptions& opt,
+                     const Eigen::Vector3d& robot) const {
+  Render out;
+  out.image.create(rays.size(), CV_8U);
+  out.depth.create(rays.size(), CV_32F);
+  out.labels.create(rays.size(), CV_8U);
+  const Eigen::Matrix3d R = T_w_c.linear();
+  const Eigen::Vector3d o = T_w_c.translation(), zc = R.col(2);
+  struct Cyl {
+    double x, y, r, h;
+    int tex;
+  };
+  std::vector<Cyl> cyls;
+  for (std::size_t i = 0; i < walkers_.size(); ++i) {
+    if (!walkers_[i].present(t)) continue;
+    const Walker& w = walkers_[i];
+    const Eigen::Vector2d c = w.escort ? w.escortAt(t, robot.head<2>(), robot.z()) : w.at(t);
+    cyls.push_back({c.x(), c.y(), walkers_[i].radius, walkers_[i].height, walker_texture_[i]});
+  }
+  const double lo[3] = {-sx_ / 2, -sy_ / 2, 0.0}, hi[3] = {sx_ / 2, sy_ / 2, h_};
+  cv::parallel_for_(cv::Range(0, rays.rows), [&](const cv::Range& range) {
+    for (int y = range.start; y < range.end; ++y) {
+      const cv::Vec3f* ray = rays.ptr<cv::Vec3f>(y);
+      uint8_t* img = out.image.ptr<uint8_t>(y);
+      float* dep = out.depth.ptr<float>(y);
+      uint8_t* lab = out.labels.ptr<uint8_t>(y);
+      for (int x = 0; x < rays.cols; ++x) {
+        const Eigen::Vector3d d = R * Eigen::Vector3d(ray[x][0], ray[x][1], ray[x][2]);
+        double best = kInf;
+        int surface = -1, walker = -1;
+        // Room: the ray leaves the box [lo, hi] through one face.
+        for (int a = 0; a < 3; ++a) {
+          if (d[a] > 1e-12) {
+            const double tt = (hi[a] - o[a]) / d[a];
+            if (tt < best) best = tt, surface = room_face_[2 * a + 1];
+          } else if (d[a] < -1e-12) {
+            const double tt = (lo[a] - o[a]) / d[a];
+            if (tt < best) best = tt, surface = room_face_[2 * a];
+          }
+        }
+        // Furniture: slab entry.
+        for (const Box& b : boxes_) {
+          double t0 = 0, t1 = best;
+          int face = -1;
+          bool miss = false;
+          for (int a = 0; a < 3 && !miss; ++a) {
+            if (std::fabs(d[a]) < 1e-12) {
+              miss = o[a] < b.lo[a] || o[a] > b.hi[a];
+              continue;
+            }
+            double ta = (b.lo[a] - o[a]) / d[a], tb = (b.hi[a] - o[a]) / d[a];
+            int fa = 2 * a, fb = 2 * a + 1;
+            if (ta > tb) std::swap(ta, tb), std::swap(fa, fb);
+            if (ta > t0) t0 = ta, face = fa;
+            t1 = std::min(t1, tb);
+            miss = t0 > t1;
+          }
+          if (!miss && face >= 0 && b.face[face] >= 0 && t0 < best) best = t0, surface = b.face[face];
+        }
+        // Walkers: vertical cylinders.
+        for (std::size_t i = 0; i < cyls.size(); ++i) {
+          const Cyl& c = cyls[i];
+          const double px = o.x() - c.x, py = o.y() - c.y;
+          const double A = d.x() * d.x() + d.y() * d.y(), B = px * d.x() + py * d.y(),
+                       C = px * px + py * py - c.r * c.r;
+          const double disc = B * B - A * C;
+          if (A < 1e-12 || disc < 0) continue;
+          const double tt = (-B - std::sqrt(disc)) / A;
+          const double z = o.z() + tt * d.z();
+          if (tt > 0 && tt < best && z >= 0 && z <= c.h) best = tt, walker = static_cast<int>(i), surface = -1;
+        }
+        double value = 0;
+        if (walker >= 0) {
+          const Cyl& c = cyls[walker];
+          const Eigen::Vector3d p = o + best * d;
+          const double ang = std::atan2(p.y() - c.y, p.x() - c.x) + M_PI;
+          const cv::Mat& tex = textures_[c.tex];
+          value = sample(tex, ang * c.r * 100, (c.h - p.z()) * 100);
+          lab[x] = static_cast<uint8_t>(opt.walker_label);
+        } else if (surface >= 0) {
+          const Surface& s = surfaces_[surface];
+          const Eigen::Vector3d p = o + best * d - s.origin;
+          value = sample(textures_[s.texture], p.dot(s.u) * s.texels_per_m, p.dot(s.v) * s.texels_per_m);
+          lab[x] = 0;
+        }
+        dep[x] = std::isfinite(best) ? static_cast<float>(best * d.dot(zc)) : 0.0f;
+        if (opt.blackout) value = 8;
+        value = (128 + opt.contrast * (value - 128)) * opt.gain +
+                opt.noise * hashNoise(opt.noise_seed, static_cast<uint64_t>(y) * rays.cols + x);
+        img[x] = cv::saturate_cast<uint8_t>(value);
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace rvwo::sim
