@@ -108,13 +108,29 @@ int main(int argc, char** argv) {
                                          "DIR", cmd);
     TCLAP::ValueArg<unsigned> seed_arg("", "seed", "random seed: textures, walkers, noise (default 1)", false, 1, "N",
                                        cmd);
+    TCLAP::ValueArg<std::string> camera_arg("", "camera", "override the scenario's camera: stereo, rgbd or mono", false,
+                                            "", "kind", cmd);
+    TCLAP::ValueArg<double> duration_arg("", "duration", "override the scenario's duration, s (e.g. a short test)",
+                                         false, 0, "s", cmd);
     TCLAP::SwitchArg quiet("", "quiet", "no progress line", cmd);
     cmd.parse(argc, argv);
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
 
     const auto t_start = std::chrono::steady_clock::now();
     const bool tty = isatty(fileno(stderr));
-    const rvwo::sim::Scenario sc = rvwo::sim::loadScenario(scenario_arg.getValue());
+    rvwo::sim::Scenario sc = rvwo::sim::loadScenario(scenario_arg.getValue());
+    if (!camera_arg.getValue().empty()) {
+      if (camera_arg.getValue() != "stereo" && camera_arg.getValue() != "rgbd" && camera_arg.getValue() != "mono") {
+        throw std::invalid_argument("--camera: stereo, rgbd or mono");
+      }
+      sc.camera = camera_arg.getValue();
+      sc.text += "# rvwo-sim --camera " + sc.camera + "\n";
+    }
+    if (duration_arg.isSet()) {
+      if (!(duration_arg.getValue() > 0)) throw std::invalid_argument("--duration must be > 0");
+      sc.duration = duration_arg.getValue();
+      sc.text += "# rvwo-sim --duration " + std::to_string(sc.duration) + "\n";
+    }
     const rvwo::sim::Motion motion(sc);
     const unsigned seed = seed_arg.getValue();
     const double duration = std::min(sc.duration, motion.duration());
