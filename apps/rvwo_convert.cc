@@ -1,0 +1,278 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// rvwo-convert: turns a dataset folder into an RVWO rawlog (docs/rawlog.md), images referenced in
+// place (absolute paths; nothing is copied), depth embedded, odometry as CObservationOdometry, and
+// the ground truth copied as TUM groundtruth.txt beside the rawlog.
+//
+//   tum        a TUM RGB-D folder: rgb.txt, depth.txt (16-bit PNG, 5000 per metre), optional
+//              groundtruth.txt; RGB and depth paired by nearest timestamp within --max-dt
+//   openloris  an OpenLORIS-Scene folder: color.txt + aligned_depth.txt (RGB-D, 1000 per metre),
+//              or with --fisheye, fisheye1.txt + fisheye2.txt (stereo); odom.txt (t, pose, twist);
+//              groundtruth.txt
+//   generic    images.txt ("t path" per line; optional images_right.txt for stereo, depth.txt for
+//              RGB-D with --depth-factor), odometry.csv ("t,x,y,theta" rows, a header line allowed)
+//
+// Every list line is checked: a malformed line, a missing image, or odometry whose time does not
+// increase is one error naming the file and the line.
+#include <mrpt/3rdparty/tclap/CmdLine.h>
+#include <mrpt/obs/CObservation3DRangeScan.h>
+#include <mrpt/obs/CObservationImage.h>
+#include <mrpt/obs/CObservationOdometry.h>
+#include <mrpt/obs/CObservationStereoImages.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <opencv2/core/utils/logger.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "support/rawlog.h"
+#include "support/trajectory.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Entry {
+  double t;
+  std::string path;   // absolute
+  std::string where;  // "file:line", for messages
+};
+
+[[noreturn]] void fail(const std::string& where, const std::string& what) {
+  throw std::runtime_error(where + ": " + what);
+}
+
+std::vector<std::string> splitFields(std::string line) {
+  for (char& c : line) {
+    if (c == ',' || c == '\t') c = ' ';
+  }
+  std::istringstream in(line);
+  std::vector<std::string> out;
+  for (std::string f; in >> f;) out.push_back(f);
+  return out;
+}
+
+bool number(const std::string& s, double* v) {
+  char* end = nullptr;
+  *v = std::strtod(s.c_str(), &end);
+  return !s.empty() && *end == '\0' && std::isfinite(*v);
+}
+
+// "t path" lists (TUM rgb.txt, OpenLORIS color.txt, ...): '#' comments; paths relative to the folder.
+std::vector<Entry> readList(const fs::path& folder, const std::string& name, bool required = true) {
+  const fs::path file = folder / name;
+  std::ifstream in(file);
+  if (!in) {
+    if (required) fail(file.string(), "not found");
+    return {};
+  }
+  std::vector<Entry> out;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    const std::string where = file.string() + ":" + std::to_string(n);
+    const auto f = splitFields(line);
+    if (f.empty() || f[0][0] == '#') continue;
+    double t;
+    if (f.size() < 2 || !number(f[0], &t)) fail(where, "expected 'timestamp path'");
+    const fs::path p = folder / f[1];
+    if (!fs::is_regular_file(p)) fail(where, "image '" + f[1] + "' not found");
+    if (!out.empty() && !(t > out.back().t)) fail(where, "timestamps must increase");
+    out.push_back({t, fs::absolute(p).string(), where});
+  }
+  if (out.empty()) fail(file.string(), "no entries");
+  return out;
+}
+
+struct Odometry {
+  double t, x, y, theta;
+};
+
+// odom.txt (OpenLORIS: t x y z qx qy qz qw [twist]) or odometry.csv (t,x,y,theta).
+std::vector<Odometry> readOdometry(const fs::path& file, bool quaternion) {
+  std::ifstream in(file);
+  if (!in) fail(file.string(), "not found");
+  std::vector<Odometry> out;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    const std::string where = file.string() + ":" + std::to_string(n);
+    const auto f = splitFields(line);
+    if (f.empty() || f[0][0] == '#') continue;
+    double v[8];
+    const std::size_t need = quaternion ? 8 : 4;
+    bool ok = f.size() >= need;
+    for (std::size_t i = 0; ok && i < need; ++i) ok = number(f[i], &v[i]);
+    if (!ok) {
+      if (n == 1 && !quaternion) continue;  // a CSV header
+      fail(where, quaternion ? "expected 't x y z qx qy qz qw ...'" : "expected 't,x,y,theta' (numbers)");
+    }
+    Odometry o{v[0], v[1], v[2], v[3]};
+    if (quaternion) o.theta = 2 * std::atan2(v[6], v[7]);  // yaw of a planar pose (qx, qy ~ 0)
+    if (!out.empty() && !(o.t > out.back().t)) fail(where, "odometry timestamps must increase");
+    out.push_back(o);
+  }
+  if (out.empty()) fail(file.string(), "no odometry");
+  return out;
+}
+
+mrpt::obs::CObservation3DRangeScan rgbd(const Entry& rgb, const Entry& depth, double units_per_metre) {
+  const cv::Mat d = cv::imread(depth.path, cv::IMREAD_UNCHANGED);
+  if (d.empty() || d.type() != CV_16UC1) fail(depth.where, "'" + depth.path + "' is not a 16-bit depth image");
+  mrpt::obs::CObservation3DRangeScan o;
+  o.sensorLabel = "RGBD";
+  o.timestamp = mrpt::Clock::fromDouble(rgb.t);
+  o.hasIntensityImage = true;
+  o.intensityImage.setExternalStorage(rgb.path);
+  o.hasRangeImage = true;
+  o.range_is_depth = true;
+  o.rangeUnits = static_cast<float>(1.0 / units_per_metre);
+  o.rangeImage_setSize(d.rows, d.cols);
+  // Intrinsics come from the settings; the size must match the images (MRPT checks it on reading).
+  o.cameraParams.ncols = o.cameraParamsIntensity.ncols = static_cast<uint32_t>(d.cols);
+  o.cameraParams.nrows = o.cameraParamsIntensity.nrows = static_cast<uint32_t>(d.rows);
+  for (int r = 0; r < d.rows; ++r) {
+    for (int c = 0; c < d.cols; ++c) o.rangeImage(r, c) = d.at<uint16_t>(r, c);
+  }
+  return o;
+}
+
+// Nearest depth entry to t within max_dt, or nullptr.
+const Entry* nearest(const std::vector<Entry>& list, double t, double max_dt) {
+  auto it = std::lower_bound(list.begin(), list.end(), t, [](const Entry& e, double v) { return e.t < v; });
+  const Entry* best = nullptr;
+  if (it != list.end()) best = &*it;
+  if (it != list.begin() && (!best || t - std::prev(it)->t < best->t - t)) best = &*std::prev(it);
+  return best && std::fabs(best->t - t) <= max_dt ? best : nullptr;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    TCLAP::CmdLine cmd(
+        "rvwo-convert: a TUM RGB-D, OpenLORIS-Scene or generic (images + odometry CSV) folder to an RVWO rawlog; "
+        "images are referenced in place, the ground truth copied beside the rawlog.",
+        ' ', "0.1");
+    std::vector<std::string> kinds = {"tum", "openloris", "generic"};
+    TCLAP::ValuesConstraint<std::string> kinds_c(kinds);
+    TCLAP::UnlabeledValueArg<std::string> kind("kind", "the folder's format", true, "", &kinds_c, cmd);
+    TCLAP::ValueArg<std::string> in_arg("", "in", "the dataset folder", true, "", "DIR", cmd);
+    TCLAP::ValueArg<std::string> out_arg("", "out", "the rawlog to write", true, "", "R.rawlog", cmd);
+    TCLAP::ValueArg<double> max_dt("", "max-dt", "largest image/depth timestamp gap paired, s (0.02)", false, 0.02, "s",
+                                   cmd);
+    TCLAP::SwitchArg fisheye("", "fisheye", "openloris: the T265 fisheye pair instead of RGB-D", cmd);
+    TCLAP::ValueArg<double> depth_factor("", "depth-factor", "generic: depth units per metre (1000)", false, 1000, "f",
+                                         cmd);
+    cmd.parse(argc, argv);
+    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+
+    const fs::path in(in_arg.getValue());
+    if (!fs::is_directory(in)) throw std::runtime_error(in.string() + ": folder not found");
+    std::multimap<double, std::function<void(rvwo::apps::RawlogWriter&)>> records;  // written in time order
+    std::size_t frames = 0, odometry = 0;
+    std::string ground_truth;
+
+    auto addRgbd = [&](const std::vector<Entry>& rgb, const std::vector<Entry>& depth, double units) {
+      for (const Entry& e : rgb) {
+        const Entry* d = nearest(depth, e.t, max_dt.getValue());
+        if (!d) continue;  // unpaired frames are skipped, as TUM's associate.py does
+        records.emplace(e.t, [e, d = *d, units](rvwo::apps::RawlogWriter& w) { w.write(rgbd(e, d, units)); });
+        ++frames;
+      }
+      if (frames == 0) throw std::runtime_error("no image pairs with depth within --max-dt");
+    };
+    auto addMono = [&](const std::vector<Entry>& left) {
+      for (const Entry& e : left) {
+        records.emplace(e.t, [e](rvwo::apps::RawlogWriter& w) {
+          mrpt::obs::CObservationImage o;
+          o.sensorLabel = "CAMERA";
+          o.timestamp = mrpt::Clock::fromDouble(e.t);
+          o.image.setExternalStorage(e.path);
+          w.write(o);
+        });
+        ++frames;
+      }
+    };
+    auto addStereo = [&](const std::vector<Entry>& left, const std::vector<Entry>& right) {
+      for (const Entry& e : left) {
+        const Entry* r = nearest(right, e.t, max_dt.getValue());
+        if (!r) continue;
+        records.emplace(e.t, [e, r = *r](rvwo::apps::RawlogWriter& w) {
+          mrpt::obs::CObservationStereoImages o;
+          o.sensorLabel = "CAMERA";
+          o.timestamp = mrpt::Clock::fromDouble(e.t);
+          o.imageLeft.setExternalStorage(e.path);
+          o.imageRight.setExternalStorage(r.path);
+          o.hasImageRight = true;
+          w.write(o);
+        });
+        ++frames;
+      }
+    };
+    auto addOdometry = [&](const std::vector<Odometry>& odo) {
+      for (const Odometry& o : odo) {
+        records.emplace(o.t, [o](rvwo::apps::RawlogWriter& w) {
+          mrpt::obs::CObservationOdometry obs;
+          obs.sensorLabel = "ODOMETRY";
+          obs.timestamp = mrpt::Clock::fromDouble(o.t);
+          obs.odometry = mrpt::poses::CPose2D(o.x, o.y, o.theta);
+          w.write(obs);
+        });
+        ++odometry;
+      }
+    };
+
+    if (kind.getValue() == "tum") {
+      const auto rgb = readList(in, "rgb.txt");  // in this order: errors name the first list first
+      const auto depth = readList(in, "depth.txt");
+      addRgbd(rgb, depth, 5000.0);
+      if (fs::exists(in / "groundtruth.txt")) ground_truth = (in / "groundtruth.txt").string();
+    } else if (kind.getValue() == "openloris") {
+      if (fisheye.getValue()) {
+        const auto left = readList(in, "fisheye1.txt");
+        const auto right = readList(in, "fisheye2.txt");
+        addStereo(left, right);
+      } else {
+        const auto color = readList(in, "color.txt");
+        const auto depth = readList(in, "aligned_depth.txt");
+        addRgbd(color, depth, 1000.0);
+      }
+      addOdometry(readOdometry(in / "odom.txt", true));
+      if (fs::exists(in / "groundtruth.txt")) ground_truth = (in / "groundtruth.txt").string();
+    } else {
+      const auto left = readList(in, "images.txt");
+      const auto right = readList(in, "images_right.txt", false);
+      const auto depth = readList(in, "depth.txt", false);
+      if (!right.empty()) {
+        addStereo(left, right);
+      } else if (!depth.empty()) {
+        addRgbd(left, depth, depth_factor.getValue());
+      } else {
+        addMono(left);
+      }
+      addOdometry(readOdometry(in / "odometry.csv", false));
+      if (fs::exists(in / "groundtruth.txt")) ground_truth = (in / "groundtruth.txt").string();
+    }
+
+    fs::create_directories(fs::absolute(out_arg.getValue()).parent_path());
+    rvwo::apps::RawlogWriter writer(out_arg.getValue());
+    for (auto& [t, write] : records) write(writer);
+    if (!ground_truth.empty()) {
+      // Checked and rewritten in full precision (TUM files repeat a timestamp now and then: skipped).
+      rvwo::apps::writeTum((fs::absolute(out_arg.getValue()).parent_path() / "groundtruth.txt").string(),
+                           rvwo::apps::readTum(ground_truth, 0, /*lenient=*/true));
+    }
+    std::printf("rvwo-convert: %s: %zu frames, %zu odometry readings -> %s%s\n", in.string().c_str(), frames, odometry,
+                out_arg.getValue().c_str(), ground_truth.empty() ? "" : " (+ groundtruth.txt)");
+    return 0;
+  } catch (const TCLAP::ArgException& e) {
+    std::fprintf(stderr, "rvwo-convert: %s (%s)\n", e.error().c_str(), e.argId().c_str());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rvwo-convert: error: %s\n", e.what());
+  }
+  return 1;
+}

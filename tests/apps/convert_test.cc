@@ -1,0 +1,181 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+// rvwo-convert on small folders the test writes (TUM RGB-D, OpenLORIS-Scene, generic): the
+// rawlogs read back with the right observations, images load from where they are, and a
+// malformed folder gets one error naming the file and line.
+#include <gtest/gtest.h>
+#include <mrpt/obs/CObservation3DRangeScan.h>
+#include <mrpt/obs/CObservationImage.h>
+#include <mrpt/obs/CObservationOdometry.h>
+#include <mrpt/obs/CObservationStereoImages.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "support/rawlog.h"
+
+namespace rvwo::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path fresh(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+void image(const fs::path& p, int value, int type = CV_8UC3) {
+  fs::create_directories(p.parent_path());
+  cv::imwrite(p.string(), cv::Mat(24, 32, type, cv::Scalar::all(value)));
+}
+
+// Runs rvwo-convert; returns its exit status and puts its stderr in *err.
+int convert(const std::string& args, std::string* err = nullptr) {
+  const fs::path e = fs::temp_directory_path() / "rvwo_convert_err.txt";
+  const int rc = std::system((std::string(RVWO_CONVERT) + " " + args + " > /dev/null 2> " + e.string()).c_str());
+  if (err) {
+    std::stringstream s;
+    s << std::ifstream(e).rdbuf();
+    *err = s.str();
+  }
+  return rc;
+}
+
+std::vector<mrpt::obs::CObservation::Ptr> readAll(const std::string& path) {
+  RawlogReader r(path);
+  std::vector<mrpt::obs::CObservation::Ptr> out;
+  while (auto o = r.next()) out.push_back(*o);
+  return out;
+}
+
+TEST(Convert, TumRgbdFolder) {
+  const fs::path d = fresh("rvwo_conv_tum");
+  std::ofstream rgb(d / "rgb.txt"), depth(d / "depth.txt"), gt(d / "groundtruth.txt");
+  rgb << "# color images\n# file: 'x.bag'\n# timestamp filename\n";
+  depth << "# depth maps\n";
+  gt << "# ground truth\n";
+  for (int i = 0; i < 3; ++i) {
+    const std::string t = std::to_string(100 + i * 0.033);
+    rgb << t << " rgb/" << i << ".png\n";
+    depth << std::to_string(100 + i * 0.033 + 0.005) << " depth/" << i << ".png\n";
+    gt << t << " " << i << " 0 0 0 0 0 1\n";
+    image(d / "rgb" / (std::to_string(i) + ".png"), 50 * i);
+    image(d / "depth" / (std::to_string(i) + ".png"), 5000 + i, CV_16UC1);  // 1 m and a bit
+  }
+  rgb.close();
+  depth.close();
+  gt.close();
+  const fs::path out = fresh("rvwo_conv_tum_out") / "tum.rawlog";
+  ASSERT_EQ(convert("tum --in " + d.string() + " --out " + out.string()), 0);
+  const auto obs = readAll(out.string());
+  ASSERT_EQ(obs.size(), 3u);
+  auto s = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(obs[2]);
+  ASSERT_TRUE(s);
+  EXPECT_NEAR(s->rangeImage(3, 4) * s->rangeUnits, (5000 + 2) / 5000.0, 1e-6);
+  s->intensityImage.forceLoad();
+  EXPECT_EQ(s->intensityImage.getWidth(), 32u);
+  EXPECT_TRUE(fs::exists(out.parent_path() / "groundtruth.txt"));
+}
+
+TEST(Convert, OpenLorisFolderWithOdometry) {
+  const fs::path d = fresh("rvwo_conv_loris");
+  std::ofstream color(d / "color.txt"), depth(d / "aligned_depth.txt"), odom(d / "odom.txt"), gt(d / "groundtruth.txt");
+  odom << "#Time pose.position.x y z pose.orientation.x y z w twist.linear.x y z twist.angular.x y z\n";
+  gt << "#Time px py pz qx qy qz qw\n";
+  for (int i = 0; i < 4; ++i) {
+    const double t = 1560000000.0 + 0.1 * i;
+    color << std::to_string(t) << " color/" << i << ".png\n";
+    depth << std::to_string(t + 0.001) << " aligned_depth/" << i << ".png\n";
+    image(d / "color" / (std::to_string(i) + ".png"), 100);
+    image(d / "aligned_depth" / (std::to_string(i) + ".png"), 1500, CV_16UC1);
+    const double yaw = 0.1 * i;
+    for (int k = 0; k < 5; ++k) {
+      odom << std::to_string(t + 0.02 * k) << " " << 0.05 * (5 * i + k) << " 0 0 0 0 " << std::sin(yaw / 2) << " "
+           << std::cos(yaw / 2) << " 0.5 0 0 0 0 0.1\n";
+    }
+    gt << std::to_string(t) << " " << 0.5 * i << " 0 0 0 0 0 1\n";
+  }
+  color.close(), depth.close(), odom.close(), gt.close();
+  const fs::path out = fresh("rvwo_conv_loris_out") / "loris.rawlog";
+  ASSERT_EQ(convert("openloris --in " + d.string() + " --out " + out.string()), 0);
+  const auto obs = readAll(out.string());
+  ASSERT_EQ(obs.size(), 4u + 20u);
+  int scans = 0, odos = 0;
+  double last_t = -1;
+  for (const auto& o : obs) {
+    const double t = mrpt::Clock::toDouble(o->timestamp);
+    EXPECT_GE(t, last_t) << "records in time order";
+    last_t = t;
+    if (auto s = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(o)) {
+      ++scans;
+      EXPECT_NEAR(s->rangeImage(0, 0) * s->rangeUnits, 1.5, 1e-6);
+    }
+    if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o)) {
+      ++odos;
+      if (odos == 6) {
+        EXPECT_NEAR(od->odometry.phi(), 0.1, 1e-6);  // the file holds 6 significant digits
+      }
+    }
+  }
+  EXPECT_EQ(scans, 4);
+  EXPECT_EQ(odos, 20);
+}
+
+TEST(Convert, GenericFolderMonoAndStereo) {
+  const fs::path d = fresh("rvwo_conv_generic");
+  {
+    std::ofstream im(d / "images.txt"), od(d / "odometry.csv");
+    od << "t,x,y,theta\n";
+    for (int i = 0; i < 3; ++i) {
+      im << 10 + i << " cam/" << i << ".png\n";
+      image(d / "cam" / (std::to_string(i) + ".png"), 30 * i, CV_8UC1);
+      od << 10 + i << "," << i << ",0," << 0.1 * i << "\n";
+    }
+  }
+  const fs::path out = fresh("rvwo_conv_generic_out");
+  ASSERT_EQ(convert("generic --in " + d.string() + " --out " + (out / "mono.rawlog").string()), 0);
+  auto obs = readAll((out / "mono.rawlog").string());
+  ASSERT_EQ(obs.size(), 6u);
+  auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs[0]);
+  ASSERT_TRUE(im);
+  im->image.forceLoad();
+  EXPECT_EQ(im->image.getHeight(), 24u);
+  {
+    std::ofstream r(d / "images_right.txt");
+    for (int i = 0; i < 3; ++i) r << 10 + i << " cam/" << i << ".png\n";
+  }
+  ASSERT_EQ(convert("generic --in " + d.string() + " --out " + (out / "stereo.rawlog").string()), 0);
+  obs = readAll((out / "stereo.rawlog").string());
+  ASSERT_TRUE(std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(obs[0]));
+}
+
+TEST(Convert, MalformedFoldersNameFileAndLine) {
+  const fs::path d = fresh("rvwo_conv_bad");
+  const std::string out = (fresh("rvwo_conv_bad_out") / "x.rawlog").string();
+  std::string err;
+  EXPECT_NE(convert("tum --in " + d.string() + " --out " + out, &err), 0);
+  EXPECT_EQ(err, "rvwo-convert: error: " + (d / "rgb.txt").string() + ": not found\n");
+  image(d / "rgb" / "0.png", 1);
+  std::ofstream(d / "rgb.txt") << "1.0 rgb/0.png\n2.0 rgb/1.png\n";
+  EXPECT_NE(convert("tum --in " + d.string() + " --out " + out, &err), 0);
+  EXPECT_EQ(err, "rvwo-convert: error: " + (d / "rgb.txt").string() + ":2: image 'rgb/1.png' not found\n");
+  std::ofstream(d / "rgb.txt") << "1.0 rgb/0.png\nnot-a-time rgb/0.png\n";
+  EXPECT_NE(convert("tum --in " + d.string() + " --out " + out, &err), 0);
+  EXPECT_NE(err.find("rgb.txt:2: expected 'timestamp path'"), std::string::npos) << err;
+  std::ofstream(d / "images.txt") << "1.0 rgb/0.png\n";
+  std::ofstream(d / "odometry.csv") << "t,x,y,theta\n1,0,0,0\n2,1,0,0\n1.5,2,0,0\n";
+  EXPECT_NE(convert("generic --in " + d.string() + " --out " + out, &err), 0);
+  EXPECT_NE(err.find("odometry.csv:4: odometry timestamps must increase"), std::string::npos) << err;
+  std::ofstream(d / "odometry.csv") << "t,x,y,theta\n1,0,nan,0\n";
+  EXPECT_NE(convert("generic --in " + d.string() + " --out " + out, &err), 0);
+  EXPECT_NE(err.find("odometry.csv:2: expected 't,x,y,theta' (numbers)"), std::string::npos) << err;
+  EXPECT_NE(convert("openloris --in /nonexistent --out " + out, &err), 0);
+  EXPECT_EQ(err, "rvwo-convert: error: /nonexistent: folder not found\n");
+}
+
+}  // namespace
+}  // namespace rvwo::apps
