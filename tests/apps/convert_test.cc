@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "../common/temp.h"
 #include "support/rawlog.h"
 
 namespace rvwo::apps {
@@ -22,7 +23,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path fresh(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / name;
+  const fs::path d = rvwo::test::scratch(name);
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
@@ -35,7 +36,7 @@ void image(const fs::path& p, int value, int type = CV_8UC3) {
 
 // Runs rvwo-convert; returns its exit status and puts its stderr in *err.
 int convert(const std::string& args, std::string* err = nullptr) {
-  const fs::path e = fs::temp_directory_path() / "rvwo_convert_err.txt";
+  const fs::path e = rvwo::test::scratch("rvwo_convert_err.txt");
   const int rc = std::system((std::string(RVWO_CONVERT) + " " + args + " > /dev/null 2> " + e.string()).c_str());
   if (err) {
     std::stringstream s;

@@ -10,6 +10,7 @@
 #include <random>
 #include <sstream>
 
+#include "../common/temp.h"
 #include "support/trajectory.h"
 
 namespace rvwo::apps {
@@ -123,7 +124,7 @@ TEST(Eval, AssociationByNearestTimestamp) {
 }
 
 TEST(Eval, TumParsingErrorsNameFileAndLine) {
-  const fs::path dir = fs::temp_directory_path() / "rvwo_eval_test";
+  const fs::path dir = rvwo::test::scratch("rvwo_eval_test");
   fs::create_directories(dir);
   const auto expectError = [&](const std::string& text, const std::string& fragment) {
     const std::string f = (dir / "t.txt").string();
@@ -149,7 +150,7 @@ TEST(Eval, TumParsingErrorsNameFileAndLine) {
 }
 
 TEST(Eval, ProgramEndToEndWithJson) {
-  const fs::path dir = fs::temp_directory_path() / "rvwo_eval_app";
+  const fs::path dir = rvwo::test::scratch("rvwo_eval_app");
   fs::create_directories(dir);
   const Trajectory gt = path();
   Trajectory est = transformed(gt, someTransform(false));

@@ -14,6 +14,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../common/temp.h"
+
 namespace rvwo::apps {
 namespace {
 
@@ -37,7 +39,7 @@ mrpt::img::TCamera camera(int w, int h) {
 }
 
 fs::path fresh(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / name;
+  const fs::path dir = rvwo::test::scratch(name);
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "../common/temp.h"
 #include "sim/odometry.h"
 #include "sim/scenario.h"
 #include "sim/scene.h"
@@ -20,7 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 
 Scenario scenarioFrom(const std::string& yaml, const std::string& name = "s") {
-  const fs::path p = fs::temp_directory_path() / ("rvwo_sim_" + name + ".yaml");
+  const fs::path p = rvwo::test::scratch("rvwo_sim_" + name + ".yaml");
   std::ofstream(p) << "%YAML:1.0\n" << yaml;
   return loadScenario(p.string());
 }
@@ -207,7 +208,7 @@ std::string slurp(const fs::path& p) {
 }
 
 TEST(Simulator, SameSeedSameBytes) {
-  const fs::path dir = fs::temp_directory_path() / "rvwo_sim_determinism";
+  const fs::path dir = rvwo::test::scratch("rvwo_sim_determinism");
   fs::remove_all(dir);
   fs::create_directories(dir);
   std::ofstream(dir / "tiny.yaml")

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
+#include "../common/temp.h"
 #include "rvwo/kernels/semantic_priors.h"
 #include "rvwo/semantics/async_segmenter.h"
 #include "rvwo/semantics/label_lookup.h"
@@ -103,7 +104,7 @@ void expectError(const OnnxSegmenterOptions& o, const std::string& fragment) {
 
 TEST(OnnxSegmenter, BadInputsGetOneClearError) {
   expectError(tiny("does_not_exist.onnx"), "model file not found");
-  const std::string text = (fs::temp_directory_path() / "rvwo_not_onnx.onnx").string();
+  const std::string text = (rvwo::test::scratch("rvwo_not_onnx.onnx")).string();
   std::ofstream(text) << "this is not a protobuf";
   OnnxSegmenterOptions o = tiny("");
   o.model_path = text;
@@ -135,7 +136,7 @@ TEST(OnnxSegmenter, BadInputsGetOneClearError) {
 }
 
 TEST(LabelImageSegmenter, NearestTimestampAndValueMapping) {
-  const fs::path dir = fs::temp_directory_path() / "rvwo_label_images";
+  const fs::path dir = rvwo::test::scratch("rvwo_label_images");
   fs::remove_all(dir);
   fs::create_directories(dir);
   cv::Mat a(4, 6, CV_8U, cv::Scalar(1)), b(4, 6, CV_8U, cv::Scalar(1));

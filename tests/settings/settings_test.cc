@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../common/temp.h"
+
 namespace rvwo {
 namespace {
 
@@ -48,13 +50,13 @@ TEST(Settings, ErrorsNameTheFileAndTheKey) {
   expectError([] { readWheelNoise(Settings::fromString("%YAML:1.0\nOdometry.NoiseY: -1\n", "o.yaml")); },
               "o.yaml: Odometry.NoiseY");
   expectError([] { Settings::load("/nonexistent/settings.yaml"); }, "settings file not found");
-  const fs::path bad = fs::temp_directory_path() / "rvwo_bad_settings.yaml";
+  const fs::path bad = rvwo::test::scratch("rvwo_bad_settings.yaml");
   std::ofstream(bad) << "this: [is not closed\n";
   expectError([&] { Settings::load(bad.string()); }, bad.string() + ": ");
 }
 
 TEST(Settings, SemanticPriorsFromYamlAndAUserFile) {
-  const fs::path dir = fs::temp_directory_path() / "rvwo_settings_test";
+  const fs::path dir = rvwo::test::scratch("rvwo_settings_test");
   fs::create_directories(dir);
   std::ofstream(dir / "priors.txt") << "# our robot's world\nchair: 0.7\n";
   std::ofstream(dir / "s.yaml")
