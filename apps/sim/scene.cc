@@ -183,12 +183,15 @@ Render Scene::render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double
         double best = kInf;
         int surface = -1, walker = -1;
         // Room: the ray leaves the box [lo, hi] through one face.
+        // 1/d once per ray: the slab tests below multiply instead of dividing.
+        const double inv[3] = {std::fabs(d[0]) > 1e-12 ? 1.0 / d[0] : 0.0, std::fabs(d[1]) > 1e-12 ? 1.0 / d[1] : 0.0,
+                               std::fabs(d[2]) > 1e-12 ? 1.0 / d[2] : 0.0};
         for (int a = 0; a < 3; ++a) {
           if (d[a] > 1e-12) {
-            const double tt = (hi[a] - o[a]) / d[a];
+            const double tt = (hi[a] - o[a]) * inv[a];
             if (tt < best) best = tt, surface = room_face_[2 * a + 1];
           } else if (d[a] < -1e-12) {
-            const double tt = (lo[a] - o[a]) / d[a];
+            const double tt = (lo[a] - o[a]) * inv[a];
             if (tt < best) best = tt, surface = room_face_[2 * a];
           }
         }
@@ -202,7 +205,7 @@ Render Scene::render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double
               miss = o[a] < b.lo[a] || o[a] > b.hi[a];
               continue;
             }
-            double ta = (b.lo[a] - o[a]) / d[a], tb = (b.hi[a] - o[a]) / d[a];
+            double ta = (b.lo[a] - o[a]) * inv[a], tb = (b.hi[a] - o[a]) * inv[a];
             int fa = 2 * a, fb = 2 * a + 1;
             if (ta > tb) std::swap(ta, tb), std::swap(fa, fb);
             if (ta > t0) t0 = ta, face = fa;
