@@ -15,6 +15,8 @@
 
 namespace rvwo::test {
 
+// A forward-looking camera: camera z along body x, camera x along -body y, pitched down 0.1 rad,
+// mounted 0.2 m ahead, 0.05 m left and 0.3 m up.
 inline Eigen::Isometry3d forwardCamera() {
   Eigen::Matrix3d R_b_c;
   R_b_c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
@@ -88,6 +90,16 @@ struct PlanarBA {
     *p = points;
     for (std::size_t k = 1; k < x->size(); ++k) (*x)[k] += Eigen::Vector3d(0.1 * g(rng), 0.1 * g(rng), 0.03 * g(rng));
     for (auto& P : *p) P += 0.1 * Eigen::Vector3d(g(rng), g(rng), g(rng));
+  }
+
+  // Errors of poses 1..5 against the truth (x, y, wrapped theta), stacked: 15 values.
+  Eigen::VectorXd poseErrors(const std::vector<Eigen::Vector3d>& x) const {
+    Eigen::VectorXd err(15);
+    for (int k = 1; k < 6; ++k) {
+      err.segment<3>(3 * (k - 1)) = x[k] - poses[k];
+      err(3 * (k - 1) + 2) = wrapAngle(err(3 * (k - 1) + 2));
+    }
+    return err;
   }
 
   // Covariance of poses 1..5 (15 x 15) at the estimate, from the full Gauss-Newton information.

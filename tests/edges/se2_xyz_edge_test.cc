@@ -11,6 +11,7 @@
 #include <random>
 
 #include "../common/numeric.h"
+#include "../common/planar_ba.h"
 
 namespace rvwo {
 namespace {
@@ -18,17 +19,6 @@ namespace {
 using test::numericJacobian;
 using test::randomAngle;
 using test::relativeError;
-
-// A forward-looking camera: camera z along body x, camera x along -body y, slightly pitched
-// down, mounted 0.2 m ahead and 0.3 m up.
-Eigen::Isometry3d cameraOnRobot() {
-  Eigen::Matrix3d R_b_c;
-  R_b_c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
-  T_b_c.linear() = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix() * R_b_c;
-  T_b_c.translation() << 0.2, 0.05, 0.3;
-  return T_b_c;
-}
 
 // A world point seen by the camera at depth 0.3 to 30 m, within a 60-degree cone.
 Eigen::Vector3d visiblePoint(std::mt19937_64& rng, const Eigen::Vector3d& x, const Eigen::Isometry3d& T_b_c) {
@@ -53,7 +43,7 @@ Eigen::Matrix<double, N, 1> reference(const CameraModel& cam, const Eigen::Isome
 
 template <int N>
 void checkJacobians(const CameraModel& cam, double bf, unsigned seed) {
-  const Eigen::Isometry3d T_b_c = cameraOnRobot();
+  const Eigen::Isometry3d T_b_c = test::forwardCamera();
   const Se2XyzEdge<N> edge(cam, T_b_c, bf);
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(-10, 10);
@@ -95,13 +85,13 @@ TEST(Se2XyzEdge, StereoJacobians) { checkJacobians<3>(PinholeCamera(500, 500, 32
 
 TEST(Se2XyzEdge, RejectsPointsBehindAndBadStereo) {
   const PinholeCamera pin(500, 500, 320, 240);
-  const Se2XyzMonoEdge edge(pin, cameraOnRobot());
+  const Se2XyzMonoEdge edge(pin, test::forwardCamera());
   Eigen::Vector2d h;
   EXPECT_FALSE(edge.predict(Eigen::Vector3d::Zero(), Eigen::Vector3d(-5, 0, 0.3), &h));  // behind the robot
   EXPECT_TRUE(edge.predict(Eigen::Vector3d::Zero(), Eigen::Vector3d(5, 0, 0.3), &h));
   const KannalaBrandtCamera kb(286, 286, 424, 400, 0, 0, 0, 0);
-  EXPECT_THROW(Se2XyzStereoEdge(kb, cameraOnRobot(), 30.0), std::invalid_argument);
-  EXPECT_THROW(Se2XyzStereoEdge(pin, cameraOnRobot(), 0.0), std::invalid_argument);
+  EXPECT_THROW(Se2XyzStereoEdge(kb, test::forwardCamera(), 30.0), std::invalid_argument);
+  EXPECT_THROW(Se2XyzStereoEdge(pin, test::forwardCamera(), 0.0), std::invalid_argument);
   EXPECT_NEAR(pyramidSigma(0), 1.0, 0);
   EXPECT_NEAR(pyramidSigma(3), 1.728, 1e-12);
 }
@@ -111,7 +101,7 @@ TEST(Se2XyzEdge, RejectsPointsBehindAndBadStereo) {
 template <int N>
 void monteCarloInflation(unsigned seed) {
   const PinholeCamera pin(500, 500, 320, 240);
-  const Eigen::Isometry3d T_b_c = cameraOnRobot();
+  const Eigen::Isometry3d T_b_c = test::forwardCamera();
   const Se2XyzEdge<N> edge(pin, T_b_c, 60.0);
   OutOfPlaneNoise noise;
   noise.sigma_z = 0.02;

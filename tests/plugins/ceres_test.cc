@@ -237,11 +237,7 @@ TEST(CeresPlanarBA, NoisyWithinThreeSigma) {
   const CeresBA s(ba, 10);
   ASSERT_TRUE(s.summary.IsSolutionUsable()) << s.summary.FullReport();
   const Eigen::MatrixXd cov = ba.poseCovariance(s.x, s.p);
-  Eigen::VectorXd err(15);
-  for (int k = 1; k < 6; ++k) {
-    err.segment<3>(3 * (k - 1)) = s.x[k] - ba.poses[k];
-    err(3 * (k - 1) + 2) = wrapAngle(err(3 * (k - 1) + 2));
-  }
+  const Eigen::VectorXd err = ba.poseErrors(s.x);
   for (int i = 0; i < 15; ++i) EXPECT_LT(std::fabs(err(i)), 3 * std::sqrt(cov(i, i))) << "pose dof " << i;
   EXPECT_LT(err.dot(cov.ldlt().solve(err)), 37.7);  // chi2(15) at 99.9 %
   // The solver did the work: it converged and reduced the cost by orders of magnitude.
