@@ -2,7 +2,7 @@
 # Generates RVWO's scenario suite (scenarios/*.yaml) with rvwo-sim into out/suite/<name>/:
 #   bash scripts/make-suite.sh [--seed N] [--camera stereo|rgbd|mono] [--duration S] [names...]
 # Builds rvwo-sim first (running the set-up if needed). About 8 MB per simulated second of
-# stereo; the whole suite (570 s) is about 4.5 GB and takes about 6 minutes on two cores.
+# stereo; the whole suite (570 s) is 4.3 GB and takes about 8 minutes on two cores.
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
