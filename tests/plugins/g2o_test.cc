@@ -22,6 +22,7 @@ namespace rvwo {
 namespace {
 
 using g2o_adapters::BarronRobustKernel;
+using g2o_adapters::EdgePlanarPriorSE3;
 using g2o_adapters::EdgeSE2Wheel;
 using g2o_adapters::EdgeSE2XYZ;
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -43,7 +44,11 @@ TEST(G2oBarronKernel, AgreesWithCoreToTheLastBit) {
 // The Jacobian block an edge's linearizeOplus() left for vertex i (0 or 1).
 template <typename Edge>
 Eigen::MatrixXd J(Edge& e, int i) {
-  return i == 0 ? Eigen::MatrixXd(e.template jacobianOplusXn<0>()) : Eigen::MatrixXd(e.template jacobianOplusXn<1>());
+  if constexpr (Edge::kNrOfVertices == 1) {
+    return Eigen::MatrixXd(e.template jacobianOplusXn<0>());
+  } else {
+    return i == 0 ? Eigen::MatrixXd(e.template jacobianOplusXn<0>()) : Eigen::MatrixXd(e.template jacobianOplusXn<1>());
+  }
 }
 
 std::shared_ptr<g2o::VertexSE2> poseVertex(int id, const Eigen::Vector3d& x) {
@@ -107,6 +112,40 @@ TEST(G2oEdges, NumericLinearisationAgreesWithAnalytic) {
   // g2o differentiates with a fixed step of 1e-9 and one-sided round-off ~1e-7 relative.
   EXPECT_LT(worst, 1e-5);
   std::cout << "g2o numeric vs analytic, worst relative difference: " << worst << "\n";
+}
+
+TEST(G2oEdges, PlanarPriorOnSE3ExpmapAgreesWithNumeric) {
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Eigen::Isometry3d T_w_p = Eigen::Isometry3d::Identity();
+  T_w_p.linear() = Eigen::AngleAxisd(0.2, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  const PlanarPrior prior(T_w_p, 0.01, 0.02);
+  const Eigen::Isometry3d T_b_c = test::forwardCamera();  // the vertex is a camera, as in ORB-SLAM3
+  g2o::JacobianWorkspace ws;
+  ws.updateSize(1, 3 * 6);
+  ws.allocate();
+  using PriorBase = g2o::BaseFixedSizedEdge<3, Eigen::Vector3d, g2o::VertexSE3Expmap>;
+  double worst = 0;
+  for (int i = 0; i < 200; ++i) {
+    Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
+    T_w_b.linear() =
+        Eigen::AngleAxisd(3 * u(rng), Eigen::Vector3d(0.2 * u(rng), 0.2 * u(rng), 1).normalized()).toRotationMatrix();
+    T_w_b.translation() << 5 * u(rng), 5 * u(rng), 0.3 * u(rng);
+    auto v = std::make_shared<g2o::VertexSE3Expmap>();
+    v->setId(0);
+    const Eigen::Isometry3d T_c_w = (T_w_b * T_b_c).inverse();
+    v->setEstimate(g2o::SE3Quat(T_c_w.linear(), T_c_w.translation()));
+    EdgePlanarPriorSE3 e(prior, T_b_c);
+    e.setVertex(0, v);
+    e.computeError();
+    EXPECT_LT((e.error() - prior.residual(T_w_b)).norm(), 1e-9);
+    e.linearizeOplus(ws);
+    const Eigen::MatrixXd A = J(e, 0);
+    e.PriorBase::linearizeOplus();  // g2o's numeric differentiation through the vertex's own update
+    worst = std::max(worst, test::relativeError(A, J(e, 0)));
+  }
+  EXPECT_LT(worst, 1e-5);
+  std::cout << "planar prior on VertexSE3Expmap: numeric vs analytic " << worst << "\n";
 }
 
 struct G2oBA {

@@ -5,17 +5,23 @@
 //                  measurement z (N = 2: u, v; N = 3: u_L, v, u_R); error h - z (eqs. 8 to 10).
 //   EdgeSE2Wheel:  g2o::VertexSE2 i - g2o::VertexSE2 j; measurement the preintegrated
 //                  (dp, dphi); error of eq. 14; information from the preintegration.
+//   EdgePlanarPriorSE3: unary, on a g2o::VertexSE3Expmap (6-DoF hosts, ORB-SLAM style: the vertex
+//                  holds T_x_w, world to its frame x, updated as exp(delta) * T, delta = (omega, v));
+//                  holds the body near the floor plane (rvwo/edges/planar_prior.h).
 // VertexSE2 updates (x, y, theta) additively with the angle wrapped, which is the
 // parameterisation the core Jacobians are written in.
 #pragma once
 
 #include <g2o/core/base_binary_edge.h>
+#include <g2o/core/base_unary_edge.h>
+#include <g2o/types/sba/vertex_se3_expmap.h>
 #include <g2o/types/slam2d/vertex_se2.h>
 #include <g2o/types/slam3d/vertex_pointxyz.h>
 
 #include <Eigen/Core>
 #include <iosfwd>
 
+#include "rvwo/edges/planar_prior.h"
 #include "rvwo/edges/se2_xyz_edge.h"
 #include "rvwo/edges/wheel_edge.h"
 
@@ -53,6 +59,24 @@ class EdgeSE2Wheel final : public g2o::BaseBinaryEdge<3, Eigen::Vector3d, g2o::V
 
  private:
   WheelEdge core_;
+};
+
+class EdgePlanarPriorSE3 final : public g2o::BaseUnaryEdge<3, Eigen::Vector3d, g2o::VertexSE3Expmap> {
+  using Base = g2o::BaseUnaryEdge<3, Eigen::Vector3d, g2o::VertexSE3Expmap>;
+
+ public:
+  // T_b_x: the vertex's frame x in the body frame (identity when the vertex is the body itself;
+  // T_b_c when it is a camera, as in ORB-SLAM3). Information from the prior's sigmas.
+  EdgePlanarPriorSE3(const PlanarPrior& prior, const Eigen::Isometry3d& T_b_x = Eigen::Isometry3d::Identity());
+  void computeError() override;
+  using Base::linearizeOplus;
+  void linearizeOplus() override;
+
+ private:
+  Eigen::Isometry3d T_w_b() const;
+  PlanarPrior prior_;
+  Eigen::Isometry3d T_x_b_;
+  Eigen::Matrix<double, 6, 6> minus_ad_;  // -Ad(T_b_x) in (omega, v) order
 };
 
 }  // namespace rvwo::g2o_adapters
