@@ -120,17 +120,15 @@ int main(int argc, char** argv) {
     const bool tty = isatty(fileno(stderr));
     rvwo::sim::Scenario sc = rvwo::sim::loadScenario(scenario_arg.getValue());
     if (!camera_arg.getValue().empty()) {
-      if (camera_arg.getValue() != "stereo" && camera_arg.getValue() != "rgbd" && camera_arg.getValue() != "mono") {
-        throw std::invalid_argument("--camera: stereo, rgbd or mono");
-      }
       sc.camera = camera_arg.getValue();
       sc.text += "# rvwo-sim --camera " + sc.camera + "\n";
     }
     if (duration_arg.isSet()) {
-      if (!(duration_arg.getValue() > 0)) throw std::invalid_argument("--duration must be > 0");
       sc.duration = duration_arg.getValue();
       sc.text += "# rvwo-sim --duration " + std::to_string(sc.duration) + "\n";
     }
+    // The overrides pass the scenario's own checks (e.g. --camera stereo on a fisheye scenario).
+    rvwo::sim::validateScenario(sc, scenario_arg.getValue() + " with the command-line overrides");
     const rvwo::sim::Motion motion(sc);
     const unsigned seed = seed_arg.getValue();
     const double duration = std::min(sc.duration, motion.duration());

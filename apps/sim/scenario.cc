@@ -93,8 +93,16 @@ Scenario loadScenario(const std::string& path) {
   s.low_texture = intervals(fs["Events.LowTexture"], "Events.LowTexture", path, 3, false);
   s.bumps = intervals(fs["Events.Bumps"], "Events.Bumps", path, 3, false);
   s.illumination = intervals(fs["Events.Illumination"], "Events.Illumination", path, 2, true);
+  validateScenario(s, path);
+  if (s.motion == "file" && std::filesystem::path(s.motion_file).is_relative()) {
+    s.motion_file = (std::filesystem::path(path).parent_path() / s.motion_file).string();
+  }
+  return s;
+}
+
+void validateScenario(const Scenario& s, const std::string& source) {
   auto check = [&](bool ok, const char* key, const char* what) {
-    if (!ok) throw std::runtime_error(path + ": " + key + ": " + what);
+    if (!ok) throw std::runtime_error(source + ": " + key + ": " + what);
   };
   check(s.duration > 0, "Sequence.Duration", "must be > 0");
   check(s.camera == "stereo" || s.camera == "rgbd" || s.camera == "mono", "Sequence.Camera", "stereo, rgbd or mono");
@@ -108,10 +116,6 @@ Scenario loadScenario(const std::string& path) {
   check(s.ticks_per_revolution > 0, "Odometry.TicksPerRevolution", "must be > 0");
   check(s.walkers >= 0 && s.walkers <= 50, "Walkers.Count", "must be in [0, 50]");
   check(s.escorts >= 0 && s.escorts <= 10, "Walkers.Escorts", "must be in [0, 10]");
-  if (s.motion == "file" && std::filesystem::path(s.motion_file).is_relative()) {
-    s.motion_file = (std::filesystem::path(path).parent_path() / s.motion_file).string();
-  }
-  return s;
 }
 
 Motion::Motion(const Scenario& s) {

@@ -45,6 +45,9 @@ struct Scenario {
 
 // Throws std::runtime_error "<file>: <key>: <what>".
 Scenario loadScenario(const std::string& path);
+// The checks loadScenario applies, for a scenario changed afterwards (command-line overrides);
+// source names it in the message.
+void validateScenario(const Scenario& s, const std::string& source);
 
 // The robot's planar motion, as a function of time from 0 to duration().
 class Motion {

@@ -197,6 +197,9 @@ TEST(Simulator, ScenarioErrorsNameFileAndKey) {
   expectError("Events.Slip: [3.0, 2.0]\n", "Events.Slip: an interval ends before it starts");
   expectError("Events.Bumps: [1.0, 2.0]\n", "Events.Bumps: expected groups of 3");
   expectError("Sequence.Motion: \"file\"\n", "Sequence.MotionFile: needed");
+  Scenario fisheye = scenarioFrom("Sequence.Camera: \"mono\"\nSequence.Lens: \"fisheye\"\n", "fisheye");
+  fisheye.camera = "stereo";  // as rvwo-sim --camera stereo would
+  EXPECT_THROW(validateScenario(fisheye, "overrides"), std::runtime_error);
   EXPECT_THROW(loadScenario("/nonexistent/scenario.yaml"), std::runtime_error);
 }
 
