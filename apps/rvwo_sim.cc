@@ -142,6 +142,8 @@ int main(int argc, char** argv) {
     const SE2 T_room_path(-centre, 0.0);  // the path centred in the room
     std::mt19937_64 rng(seed * 31u + 7u);
     std::uniform_real_distribution<double> u(0, 1);
+    const Eigen::Vector2d inner(room_x / 2 - 0.5, room_y / 2 - 0.5);  // 0.5 m from the walls
+    auto insideRoom = [&](const Eigen::Vector2d& p) -> Eigen::Vector2d { return p.cwiseMax(-inner).cwiseMin(inner); };
     for (int i = 0; i < sc.walkers; ++i) {
       // Walkers cross the room along random segments through its middle part.
       rvwo::sim::Walker w;
@@ -149,12 +151,8 @@ int main(int argc, char** argv) {
       const Eigen::Vector2d c((u(rng) - 0.5) * room_x * 0.5, (u(rng) - 0.5) * room_y * 0.5);
       const Eigen::Vector2d dir(std::cos(a), std::sin(a));
       const double half = 0.5 * std::min(room_x, room_y) - 1.0;
-      w.a = c - half * dir;
-      w.b = c + half * dir;
-      w.a = w.a.cwiseMax(Eigen::Vector2d(-room_x / 2 + 0.5, -room_y / 2 + 0.5))
-                .cwiseMin(Eigen::Vector2d(room_x / 2 - 0.5, room_y / 2 - 0.5));
-      w.b = w.b.cwiseMax(Eigen::Vector2d(-room_x / 2 + 0.5, -room_y / 2 + 0.5))
-                .cwiseMin(Eigen::Vector2d(room_x / 2 - 0.5, room_y / 2 - 0.5));
+      w.a = insideRoom(c - half * dir);
+      w.b = insideRoom(c + half * dir);
       w.speed = sc.walker_speed * (0.7 + 0.6 * u(rng));
       w.phase = 10 * u(rng);
       scene.addWalker(w);
