@@ -40,6 +40,7 @@
 #include "rvwo/kernels/reliability.h"
 #include "rvwo/kernels/semantic_priors.h"
 #include "support/plot.h"
+#include "support/trajectory.h"
 
 namespace {
 
@@ -84,25 +85,17 @@ rvwo::SE2 robotAt(double t) {
   return T;
 }
 
+// ATE: RMSE of the positions after a planar rigid alignment (rvwo-eval's posyaw on z = 0).
 double ate(const std::vector<rvwo::SE2>& est, const std::vector<rvwo::SE2>& gt) {
-  // Planar rigid alignment (Kabsch in 2-D) of the positions, then the RMSE.
-  Eigen::Vector2d me = Eigen::Vector2d::Zero(), mg = Eigen::Vector2d::Zero();
+  std::vector<Eigen::Vector3d> e, g;
   for (std::size_t i = 0; i < est.size(); ++i) {
-    me += est[i].translation() / est.size();
-    mg += gt[i].translation() / gt.size();
+    e.emplace_back(est[i].translation().x(), est[i].translation().y(), 0.0);
+    g.emplace_back(gt[i].translation().x(), gt[i].translation().y(), 0.0);
   }
-  double sxx = 0, sxy = 0;
-  for (std::size_t i = 0; i < est.size(); ++i) {
-    const Eigen::Vector2d e = est[i].translation() - me, g = gt[i].translation() - mg;
-    sxx += e.dot(g);
-    sxy += e.x() * g.y() - e.y() * g.x();
-  }
-  const Eigen::Matrix2d R = rvwo::rotation2(std::atan2(sxy, sxx));
-  double sum = 0;
-  for (std::size_t i = 0; i < est.size(); ++i) {
-    sum += (R * (est[i].translation() - me) + mg - gt[i].translation()).squaredNorm();
-  }
-  return std::sqrt(sum / est.size());
+  const rvwo::apps::Similarity A = rvwo::apps::align(g, e, rvwo::apps::Alignment::kPosYaw);
+  std::vector<double> errors;
+  for (std::size_t i = 0; i < e.size(); ++i) errors.push_back((g[i] - A.apply(e[i])).norm());
+  return rvwo::apps::statistics(errors).rmse;
 }
 
 // One simulated run, solved four ways; fills the ATE of each mode (wheel, vo-huber, vw-huber,
