@@ -1,6 +1,7 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 #include "rvwo/settings/settings.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
@@ -63,6 +64,26 @@ double Settings::requireNumber(const std::string& key) const {
   const auto v = number(key);
   if (!v) throw std::invalid_argument(path_ + ": missing key " + key);
   return *v;
+}
+
+std::optional<std::vector<double>> Settings::matrix(const std::string& key, int rows, int cols) const {
+  const cv::FileNode n = impl_->fs[key];
+  if (n.empty() || n.isNone()) return std::nullopt;
+  cv::Mat m;
+  try {
+    n >> m;
+  } catch (const cv::Exception&) {
+    m.release();
+  }
+  if (m.empty() || m.rows != rows || m.cols != cols || m.channels() != 1)
+    throw std::invalid_argument(path_ + ": " + key + " must be a " + std::to_string(rows) + "x" + std::to_string(cols) +
+                                " !!opencv-matrix");
+  m.convertTo(m, CV_64F);
+  std::vector<double> out(m.begin<double>(), m.end<double>());
+  for (double v : out) {
+    if (!std::isfinite(v)) throw std::invalid_argument(path_ + ": " + key + " has a value that is not finite");
+  }
+  return out;
 }
 
 std::vector<std::string> Settings::keysWithPrefix(const std::string& prefix) const {

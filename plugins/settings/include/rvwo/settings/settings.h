@@ -40,6 +40,9 @@ class Settings {
   std::optional<std::string> text(const std::string& key) const;
   // Present and a number, or std::invalid_argument "<path>: missing key <key>".
   double requireNumber(const std::string& key) const;
+  // A rows x cols !!opencv-matrix (e.g. Camera.T_b_c, 4x4), row-major; absent: std::nullopt;
+  // present but not a matrix of that size: std::invalid_argument naming it.
+  std::optional<std::vector<double>> matrix(const std::string& key, int rows, int cols) const;
   // Every top-level key that starts with prefix.
   std::vector<std::string> keysWithPrefix(const std::string& prefix) const;
 

@@ -1,0 +1,526 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// rvwo-replay: replays a rawlog (camera + wheel odometry) through the RVWO estimator and writes
+// the robot base's pose at every frame.
+//
+//   rvwo-replay --settings S.yaml --rawlog R.rawlog --out traj.txt [--gt groundtruth.txt]
+//
+// Inputs follow docs/rawlog.md (rvwo-sim and rvwo-convert write them). The estimator
+// (rvwo/estimator/estimator.h) tracks ORB features against a local map, optimises the pose on
+// SE(2) with RVWO's SE(2)-XYZ and wheel edges and each landmark's adaptive Barron kernel, and runs
+// local bundle adjustment on a window of keyframes; keyframes are segmented in a thread of their
+// own and the labels feed the landmarks' reliability.
+//
+// Output: traj.txt (TUM: t x y z qx qy qz qw, base frame, z = 0), a progress line on stderr, a
+// report on stdout (frames, keyframes, frames on wheels only and when, per-stage timings, speed,
+// peak memory, ATE with --gt) and a PNG (trajectory against ground truth, error over time).
+//
+// Ablations: --mode wheel|vo|vw, --kernel huber|fixed:<alpha>|adaptive, --no-semantics.
+// Bad records (odometry going backwards or NaN, an image of the wrong size or missing) are
+// skipped with a line on stderr; a truncated or corrupt rawlog stops the replay there: what was
+// estimated so far is written, and the exit status is 1.
+#include <glog/logging.h>
+#include <mrpt/3rdparty/tclap/CmdLine.h>
+#include <mrpt/obs/CObservation3DRangeScan.h>
+#include <mrpt/obs/CObservationImage.h>
+#include <mrpt/obs/CObservationOdometry.h>
+#include <mrpt/obs/CObservationStereoImages.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <thread>
+#include <variant>
+
+#include "rvwo/estimator/estimator.h"
+#include "rvwo/semantics/onnx_segmenter.h"
+#include "support/plot.h"
+#include "support/rawlog.h"
+#include "support/trajectory.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using rvwo::estimator::FrameInput;
+
+// Label images that came in the rawlog (sensor LABELS), served by timestamp: the simulator's
+// ground truth or a dataset's masks, through the same Segmenter interface as a network.
+class RawlogLabels final : public rvwo::Segmenter {
+ public:
+  explicit RawlogLabels(std::vector<std::string> classes) : classes_(std::move(classes)) {}
+  void add(double t, cv::Mat labels) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    labels_[t] = std::move(labels);
+    while (labels_.size() > 600) labels_.erase(labels_.begin());  // 20 s at 30 Hz: bounded memory
+  }
+  bool any() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return !labels_.empty();
+  }
+  rvwo::Segmentation segment(const cv::Mat&, const rvwo::FrameInfo& info) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = labels_.lower_bound(info.timestamp - 1e-4);
+    if (it == labels_.end() || std::fabs(it->first - info.timestamp) > 1e-4)
+      throw std::runtime_error("no label image at t = " + std::to_string(info.timestamp));
+    rvwo::Segmentation s;
+    it->second.convertTo(s.labels, CV_32S);
+    return s;
+  }
+  const std::vector<std::string>& classNames() const override { return classes_; }
+
+ private:
+  std::vector<std::string> classes_;
+  mutable std::mutex mutex_;
+  std::map<double, cv::Mat> labels_;
+};
+
+// What the reader thread hands over, in rawlog order.
+struct Odometry {
+  double t;
+  rvwo::SE2 pose;
+  bool has_encoders, has_velocities;
+  double ticks_left, ticks_right, v, omega;
+};
+struct Labels {
+  double t;
+  cv::Mat image;
+};
+struct Skip {
+  std::string why;
+};
+using Event = std::variant<FrameInput, Odometry, Labels, Skip>;
+
+cv::Mat loadImage(const mrpt::img::CImage& image, int flags) {
+  if (image.isExternallyStored()) {
+    const std::string path = image.getExternalStorageFileAbsolutePath();
+    cv::Mat m = cv::imread(path, flags);
+    if (m.empty()) throw std::runtime_error("cannot read image " + path);
+    return m;
+  }
+  return image.asCvMat<cv::Mat>(mrpt::img::SHALLOW_COPY).clone();
+}
+
+// Reads and decodes ahead of the estimator in a thread of its own (bounded: a few frames).
+class Prefetcher {
+ public:
+  Prefetcher(const std::string& path, std::string camera_label, std::string odometry_label, std::string labels_label,
+             bool want_images)
+      : reader_(path),
+        camera_(std::move(camera_label)),
+        odometry_(std::move(odometry_label)),
+        labels_(std::move(labels_label)),
+        want_images_(want_images) {
+    thread_ = std::thread([this] { run(); });
+  }
+  ~Prefetcher() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  // The next event, or nullopt at the end (error() then says whether the file ended badly).
+  std::optional<Event> next() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    cv_.wait(lock, [&] { return !queue_.empty() || done_; });
+    if (queue_.empty()) return std::nullopt;
+    Event e = std::move(queue_.front());
+    queue_.pop_front();
+    cv_.notify_all();
+    return e;
+  }
+  std::string error() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return error_;
+  }
+  std::size_t records() const { return records_; }
+
+ private:
+  void push(Event e) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    cv_.wait(lock, [&] { return queue_.size() < 64 || stop_; });
+    queue_.push_back(std::move(e));
+    cv_.notify_all();
+  }
+  void run() {
+    try {
+      for (;;) {
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (stop_) break;
+        }
+        auto o = reader_.next();
+        if (!o) break;
+        records_ = reader_.count();
+        const auto& obs = *o;
+        const double t = mrpt::Clock::toDouble(obs->timestamp);
+        const std::string where = "record " + std::to_string(reader_.count() - 1) + " (t = " + std::to_string(t) + ")";
+        try {
+          if (obs->sensorLabel == odometry_) {
+            auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(obs);
+            if (!od) throw std::runtime_error("sensor " + odometry_ + " is not a CObservationOdometry");
+            push(Odometry{t, rvwo::SE2(od->odometry.x(), od->odometry.y(), od->odometry.phi()), od->hasEncodersInfo,
+                          od->hasVelocities, double(od->encoderLeftTicks), double(od->encoderRightTicks),
+                          od->velocityLocal.vx, od->velocityLocal.omega});
+          } else if (obs->sensorLabel == camera_) {
+            FrameInput f;
+            f.timestamp = t;
+            if (want_images_) {
+              if (auto st = std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(obs)) {
+                f.image = loadImage(st->imageLeft, cv::IMREAD_GRAYSCALE);
+                if (st->hasImageRight) f.right = loadImage(st->imageRight, cv::IMREAD_GRAYSCALE);
+              } else if (auto rgbd = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(obs)) {
+                if (rgbd->hasIntensityImage) f.image = loadImage(rgbd->intensityImage, cv::IMREAD_GRAYSCALE);
+                if (rgbd->hasRangeImage) {
+                  rgbd->load();  // external range images
+                  cv::Mat depth(rgbd->rangeImage.rows(), rgbd->rangeImage.cols(), CV_32F);
+                  for (int r = 0; r < depth.rows; ++r) {
+                    for (int c = 0; c < depth.cols; ++c)
+                      depth.at<float>(r, c) = rgbd->rangeImage(r, c) * rgbd->rangeUnits;
+                  }
+                  f.depth = depth;  // metres: the estimator's depth factor is set to 1 for rawlogs
+                }
+              } else if (auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs)) {
+                f.image = loadImage(im->image, cv::IMREAD_GRAYSCALE);
+              } else {
+                throw std::runtime_error("sensor " + camera_ + " is not a camera observation");
+              }
+            }
+            push(std::move(f));
+          } else if (obs->sensorLabel == labels_) {
+            auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
+            if (!im) throw std::runtime_error("sensor " + labels_ + " is not a CObservationImage");
+            push(Labels{t, loadImage(im->image, cv::IMREAD_UNCHANGED)});
+          }
+        } catch (const std::exception& e) {
+          push(Skip{where + ": " + e.what()});
+        }
+      }
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      error_ = e.what();
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    done_ = true;
+    cv_.notify_all();
+  }
+
+  rvwo::apps::RawlogReader reader_;
+  const std::string camera_, odometry_, labels_;
+  const bool want_images_;
+  std::thread thread_;
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<Event> queue_;
+  bool stop_ = false, done_ = false;
+  std::string error_;
+  std::atomic<std::size_t> records_{0};
+};
+
+double peakMemoryMb() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  }
+  return 0;
+}
+
+rvwo::apps::Trajectory toTrajectory(const std::vector<rvwo::estimator::PoseEstimate>& poses) {
+  rvwo::apps::Trajectory out;
+  for (const auto& p : poses) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::AngleAxisd(p.T_w_b.angle(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T.translation() << p.T_w_b.translation(), 0.0;
+    out.push_back({p.timestamp, T});
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    TCLAP::CmdLine cmd(
+        "rvwo-replay: replays a rawlog (camera and wheel odometry, docs/rawlog.md) through the RVWO estimator "
+        "(visual-wheel odometry on SE(2) with adaptive robust kernels, local bundle adjustment, segmentation of "
+        "keyframes) and writes the robot's pose at every frame in TUM format, a report and a PNG plot. "
+        "Example: rvwo-sim --scenario scenarios/dynamic.yaml --out seq --duration 20 && rvwo-replay --settings "
+        "seq/settings.yaml --rawlog seq/sequence.rawlog --out traj.txt --gt seq/groundtruth.txt",
+        ' ', "0.1");
+    TCLAP::ValueArg<std::string> settings_arg("", "settings", "settings YAML (camera, extrinsic, odometry, ...)", true,
+                                              "", "S.yaml", cmd);
+    TCLAP::ValueArg<std::string> rawlog_arg("", "rawlog", "the recording", true, "", "R.rawlog", cmd);
+    TCLAP::ValueArg<std::string> out_arg("", "out", "trajectory file to write (TUM format)", true, "", "traj.txt", cmd);
+    TCLAP::ValueArg<std::string> gt_arg("", "gt", "ground truth (TUM): the report gives the ATE and the plot shows it",
+                                        false, "", "gt.txt", cmd);
+    TCLAP::ValueArg<std::string> mode_arg("", "mode",
+                                          "wheel: dead reckoning; vo: vision only; vw: vision and wheels (default)",
+                                          false, "vw", "wheel|vo|vw", cmd);
+    TCLAP::ValueArg<std::string> kernel_arg(
+        "", "kernel",
+        "robust kernel on visual residuals: huber, fixed:<alpha> (a Barron shape for all), adaptive (default: each "
+        "landmark's shape from its reliability)",
+        false, "adaptive", "huber|fixed:A|adaptive", cmd);
+    TCLAP::SwitchArg no_semantics("", "no-semantics", "ignore labels: reliability from reprojection errors only", cmd);
+    TCLAP::ValueArg<std::string> segmenter_arg(
+        "", "segmenter",
+        "labels for keyframes: rawlog (the LABELS images in the rawlog, default when present), onnx:<model.onnx> "
+        "(a network, e.g. ../shared/models/deeplabv3_mnv2_voc21.onnx), or none",
+        false, "auto", "rawlog|onnx:FILE|none", cmd);
+    TCLAP::SwitchArg deterministic("", "deterministic",
+                                   "one thread, mapping and segmentation inline: same input, same output", cmd);
+    TCLAP::ValueArg<std::string> plot_arg("", "plot", "PNG to write (default: the --out file with .png)", false, "",
+                                          "file.png", cmd);
+    TCLAP::ValueArg<std::string> align_arg("", "align", "ATE alignment: se3 (default), sim3, posyaw, none", false,
+                                           "se3", "se3|...", cmd);
+    TCLAP::SwitchArg quiet("", "quiet", "no progress line", cmd);
+    cmd.parse(argc, argv);
+    FLAGS_minloglevel = 2;
+
+    // ---- settings and options ----
+    const rvwo::Settings settings = rvwo::Settings::load(settings_arg.getValue());
+    rvwo::estimator::Rig rig = rvwo::estimator::readRig(settings);
+    rvwo::estimator::EstimatorOptions opt;
+    const std::string mode = mode_arg.getValue(), kernel = kernel_arg.getValue();
+    if (mode == "wheel") {
+      opt.mode = rvwo::estimator::Mode::kWheel;
+    } else if (mode == "vo") {
+      opt.mode = rvwo::estimator::Mode::kVo;
+    } else if (mode == "vw") {
+      opt.mode = rvwo::estimator::Mode::kVw;
+    } else {
+      throw std::invalid_argument("--mode must be wheel, vo or vw, not '" + mode + "'");
+    }
+    if (kernel == "huber") {
+      opt.kernel = rvwo::estimator::KernelChoice::kHuber;
+    } else if (kernel == "adaptive") {
+      opt.kernel = rvwo::estimator::KernelChoice::kAdaptive;
+    } else if (kernel.rfind("fixed:", 0) == 0) {
+      opt.kernel = rvwo::estimator::KernelChoice::kFixed;
+      try {
+        opt.fixed_alpha = kernel.substr(6) == "-inf" ? -INFINITY : std::stod(kernel.substr(6));
+      } catch (const std::exception&) {
+        throw std::invalid_argument("--kernel fixed:<alpha>: '" + kernel.substr(6) + "' is not a number");
+      }
+    } else {
+      throw std::invalid_argument("--kernel must be huber, fixed:<alpha> or adaptive, not '" + kernel + "'");
+    }
+    opt.semantics = !no_semantics.getValue();
+    opt.deterministic = deterministic.getValue();
+    opt = rvwo::estimator::readEstimatorOptions(settings, opt);
+    const double ticks_per_rev = settings.number("Odometry.TicksPerRevolution").value_or(0);
+    const std::string odometry_input =
+        settings.text("Odometry.Input").value_or(ticks_per_rev > 0 ? "encoders" : "pose");
+    if (odometry_input != "encoders" && odometry_input != "velocities" && odometry_input != "pose")
+      throw std::invalid_argument(settings.path() +
+                                  ": Odometry.Input must be \"encoders\", \"velocities\" or \"pose\"");
+    if (odometry_input == "encoders" && !(ticks_per_rev > 0))
+      throw std::invalid_argument(settings.path() + ": missing key Odometry.TicksPerRevolution (for encoders)");
+    if (rig.sensor == rvwo::estimator::Sensor::kRgbd) rig.depth_factor = 1.0;  // the reader gives metres
+
+    // ---- segmentation ----
+    std::shared_ptr<rvwo::Segmenter> segmenter;
+    std::shared_ptr<RawlogLabels> rawlog_labels;
+    std::string seg = segmenter_arg.getValue(), seg_name = "none";
+    if (opt.semantics && seg != "none") {
+      if (seg == "auto" || seg == "rawlog") {
+        rawlog_labels = std::make_shared<RawlogLabels>(opt.priors.classes());
+        segmenter = rawlog_labels;
+        seg_name = "label images from the rawlog";
+      } else if (seg.rfind("onnx:", 0) == 0) {
+        rvwo::OnnxSegmenterOptions o;
+        o.model_path = seg.substr(5);
+        o.class_names = opt.priors.classes();
+        segmenter = std::make_shared<rvwo::OnnxSegmenter>(o);
+        seg_name = "ONNX model " + o.model_path;
+      } else {
+        throw std::invalid_argument("--segmenter must be rawlog, onnx:<file> or none, not '" + seg + "'");
+      }
+    }
+    if (!opt.semantics) seg_name = "off (--no-semantics)";
+
+    // ---- replay ----
+    const std::string camera_label =
+        settings.text("Rawlog.CameraLabel").value_or(rig.sensor == rvwo::estimator::Sensor::kRgbd ? "RGBD" : "CAMERA");
+    const std::string odometry_label = settings.text("Rawlog.OdometryLabel").value_or("ODOMETRY");
+    const std::string labels_label = settings.text("Rawlog.LabelsLabel").value_or("LABELS");
+    rvwo::estimator::Estimator estimator(rig, opt, segmenter);
+    Prefetcher reader(rawlog_arg.getValue(), camera_label, odometry_label, rawlog_labels ? labels_label : "",
+                      opt.mode != rvwo::estimator::Mode::kWheel);
+    const bool tty = isatty(fileno(stderr)) && !quiet.getValue();
+    const auto t_start = std::chrono::steady_clock::now();
+    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
+    double first_t = NAN, last_t = NAN, last_progress = -1;
+    std::size_t frames = 0, odometry_count = 0, skipped = 0;
+    estimator.setFrameCallback([&](const rvwo::estimator::PoseEstimate& p) {
+      ++frames;
+      if (quiet.getValue()) return;
+      const double el = elapsed();
+      if (el - last_progress < (tty ? 0.5 : 10.0)) return;
+      last_progress = el;
+      std::fprintf(stderr, "%srvwo-replay: t = %.1f s, %zu frames, %.1f frames/s (%.1fx real time), pose %s%s",
+                   tty ? "\r" : "", p.timestamp - first_t, frames, frames / el, (p.timestamp - first_t) / el,
+                   p.visual ? "visual     " : "wheels only", tty ? "  " : "\n");
+    });
+    auto skip = [&](const std::string& why) {
+      ++skipped;
+      if (skipped <= 10) std::fprintf(stderr, "%srvwo-replay: skipped %s\n", tty ? "\n" : "", why.c_str());
+      if (skipped == 10) std::fprintf(stderr, "rvwo-replay: (further skips are counted, not shown)\n");
+    };
+    double q_left0 = NAN, q_right0 = NAN;
+    // A frame is held until the next record, so that its label image (written after it) is there
+    // when the estimator makes it a keyframe.
+    std::optional<FrameInput> held;
+    auto flush = [&] {
+      if (!held) return;
+      try {
+        estimator.addFrame(*held);
+      } catch (const std::invalid_argument& ex) {
+        skip("frame at t = " + std::to_string(held->timestamp) + ": " + ex.what());
+      }
+      held.reset();
+    };
+    while (auto e = reader.next()) {
+      if (auto* l = std::get_if<Labels>(&*e)) {
+        if (rawlog_labels) rawlog_labels->add(l->t, l->image);
+        if (held && std::fabs(held->timestamp - l->t) < 1e-6) flush();
+        continue;
+      }
+      flush();
+      if (auto* f = std::get_if<FrameInput>(&*e)) {
+        if (std::isnan(first_t)) first_t = f->timestamp;
+        last_t = f->timestamp;
+        held = std::move(*f);
+      } else if (auto* o = std::get_if<Odometry>(&*e)) {
+        ++odometry_count;
+        if (opt.mode == rvwo::estimator::Mode::kVo) continue;
+        try {
+          if (odometry_input == "encoders") {
+            if (!o->has_encoders) throw std::invalid_argument("no encoder ticks (Odometry.Input is encoders)");
+            const double k = 2 * M_PI / ticks_per_rev;
+            if (std::isnan(q_left0)) {
+              q_left0 = o->ticks_left;
+              q_right0 = o->ticks_right;
+            }
+            estimator.addWheelAngles(o->t, (o->ticks_left - q_left0) * k, (o->ticks_right - q_right0) * k);
+          } else if (odometry_input == "velocities") {
+            if (!o->has_velocities) throw std::invalid_argument("no velocities (Odometry.Input is velocities)");
+            const double b = opt.drive.track;
+            estimator.addWheelSpeeds(o->t, (o->v - o->omega * b / 2) / opt.drive.radius_left,
+                                     (o->v + o->omega * b / 2) / opt.drive.radius_right);
+          } else {
+            estimator.addOdometryPose(o->t, o->pose);
+          }
+        } catch (const std::invalid_argument& ex) {
+          skip("odometry at t = " + std::to_string(o->t) + ": " + ex.what());
+        }
+      } else if (auto* s = std::get_if<Skip>(&*e)) {
+        skip(s->why);
+      }
+    }
+    flush();
+    const std::string read_error = reader.error();
+    estimator.finish();
+    const double wall = elapsed();
+    if (tty) std::fprintf(stderr, "\n");
+
+    // ---- output ----
+    const auto poses = estimator.trajectory();
+    if (poses.empty())
+      throw std::runtime_error(rawlog_arg.getValue() + ": no camera frames (sensor label '" + camera_label +
+                               "'; Rawlog.CameraLabel names another)" + (read_error.empty() ? "" : "; " + read_error));
+    if (opt.mode != rvwo::estimator::Mode::kVo && odometry_count == 0)
+      throw std::runtime_error(rawlog_arg.getValue() + ": no odometry (sensor label '" + odometry_label +
+                               "'): --mode vo runs without it");
+    if (rawlog_labels && !rawlog_labels->any() && seg == "rawlog")
+      throw std::runtime_error(rawlog_arg.getValue() + ": no label images (sensor label '" + labels_label + "')");
+    const rvwo::apps::Trajectory est = toTrajectory(poses);
+    rvwo::apps::writeTum(out_arg.getValue(), est);
+    const rvwo::estimator::Report rep = estimator.report();
+    const double seq_s = last_t - first_t;
+    std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog_arg.getValue().c_str(), mode.c_str(),
+                kernel.c_str(), seg_name.c_str());
+    std::printf("  frames %zu over %.1f s, keyframes %zu, map points made %zu, segmented keyframes %zu\n", rep.frames,
+                seq_s, rep.keyframes, rep.map_points_created, rep.segmented_keyframes);
+    std::printf("  frames on wheels only: %zu", rep.wheel_only_frames);
+    for (std::size_t i = 0; i < rep.wheel_only_intervals.size() && i < 8; ++i) {
+      std::printf("%s%.2f-%.2f s", i ? ", " : " (", rep.wheel_only_intervals[i].first - first_t,
+                  rep.wheel_only_intervals[i].second - first_t);
+    }
+    if (rep.wheel_only_intervals.size() > 8) std::printf(", ... %zu stretches", rep.wheel_only_intervals.size());
+    std::printf("%s\n", rep.wheel_only_intervals.empty() ? "" : ")");
+    if (skipped > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped);
+    std::printf("  speed: %.1f s of data in %.1f s: %.2fx real time, %.1f frames/s; peak memory %.0f MB\n", seq_s, wall,
+                seq_s / wall, rep.frames / wall, peakMemoryMb());
+    std::printf("  timings [ms]     mean     p95     max   count\n");
+    for (const auto& [stage, s] : rep.timings) {
+      std::printf("  %-14s %7.2f %7.2f %7.1f %7zu\n", stage.c_str(), s.mean, s.p95, s.max, s.count);
+    }
+    std::printf("  trajectory: %s\n", out_arg.getValue().c_str());
+
+    std::string plot_path = plot_arg.getValue();
+    if (plot_path.empty()) plot_path = fs::path(out_arg.getValue()).replace_extension(".png").string();
+    std::vector<Eigen::Vector2d> est_xy, gt_xy, wheel_xy, err_t;
+    std::unique_ptr<rvwo::apps::Plot> traj_plot, err_plot;
+    if (!gt_arg.getValue().empty()) {
+      const rvwo::apps::Trajectory gt = rvwo::apps::readTum(gt_arg.getValue());
+      const auto pairs = rvwo::apps::associate(gt, est, 0.01);
+      if (pairs.size() < 3)
+        throw std::runtime_error(gt_arg.getValue() + ": fewer than 3 poses match the frames' times");
+      const auto a = rvwo::apps::ate(gt, est, pairs, rvwo::apps::parseAlignment(align_arg.getValue()));
+      const double path = rvwo::apps::pathLength(gt, pairs);
+      const auto step = rvwo::apps::rpe(gt, est, pairs, 1, false);
+      std::printf("  ATE (%s): rmse %.4f m = %.3f %% of the %.1f m path; mean %.4f, max %.4f m\n",
+                  align_arg.getValue().c_str(), a.stats.rmse, 100 * a.stats.rmse / path, path, a.stats.mean,
+                  a.stats.max);
+      std::printf("  largest frame-to-frame error (RPE, 1 frame): %.4f m\n", step.stats.max);
+      for (std::size_t k = 0; k < pairs.size(); ++k) {
+        gt_xy.push_back(a.ref[k].head<2>());
+        est_xy.push_back(a.est_aligned[k].head<2>());
+        if (!poses[pairs[k].second].visual && opt.mode != rvwo::estimator::Mode::kWheel)
+          wheel_xy.push_back(a.est_aligned[k].head<2>());
+        err_t.emplace_back(a.t[k] - first_t, a.errors[k]);
+      }
+    } else {
+      for (const auto& p : poses) {
+        est_xy.push_back(p.T_w_b.translation());
+        if (!p.visual && opt.mode != rvwo::estimator::Mode::kWheel) wheel_xy.push_back(p.T_w_b.translation());
+      }
+    }
+    traj_plot = std::make_unique<rvwo::apps::Plot>("rvwo-replay: " + mode + ", " + kernel + " (from above)", "x [m]",
+                                                   "y [m]", true);
+    if (!gt_xy.empty()) traj_plot->add(gt_xy, mrpt::img::TColor(0, 0, 0), "ground truth");
+    traj_plot->add(est_xy, mrpt::img::TColor(0, 150, 60), "estimate" + std::string(gt_xy.empty() ? "" : " (aligned)"));
+    if (!wheel_xy.empty()) traj_plot->add(wheel_xy, mrpt::img::TColor(230, 120, 0), "wheels only", 0);
+    std::vector<const rvwo::apps::Plot*> panels{traj_plot.get()};
+    if (!err_t.empty()) {
+      err_plot = std::make_unique<rvwo::apps::Plot>("position error after alignment", "t [s]", "error [m]");
+      err_plot->add(err_t, mrpt::img::TColor(200, 40, 40), "ATE");
+      panels.push_back(err_plot.get());
+    }
+    rvwo::apps::savePanels(plot_path, panels);
+    std::printf("  plot: %s\n", plot_path.c_str());
+    if (!read_error.empty()) {
+      std::fprintf(stderr, "rvwo-replay: error: %s (the %zu frames before it are written to %s)\n", read_error.c_str(),
+                   rep.frames, out_arg.getValue().c_str());
+      return 1;
+    }
+    return 0;
+  } catch (const TCLAP::ArgException& e) {
+    std::fprintf(stderr, "rvwo-replay: %s (%s)\n", e.error().c_str(), e.argId().c_str());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rvwo-replay: error: %s\n", e.what());
+  }
+  return 1;
+}

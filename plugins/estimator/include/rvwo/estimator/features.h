@@ -1,0 +1,65 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// A frame's features: ORB keypoints (OpenCV) spread over the image on a grid, their descriptors,
+// and for stereo or RGB-D each one's right-image coordinate u_R = u_L - bf / depth (ORB-SLAM's
+// convention: the SE(2)-XYZ stereo edge measures (u_L, v, u_R)), or -1 where there is none.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <vector>
+
+namespace rvwo::estimator {
+
+struct FeatureParams {
+  int features = 1000;        // per image
+  double scale_factor = 1.2;  // pyramid scale between levels
+  int levels = 8;
+  int fast_threshold = 12;           // grey levels
+  int grid_cols = 8, grid_rows = 6;  // features are shared out over these cells by FAST response
+};
+
+struct Features {
+  std::vector<cv::KeyPoint> keypoints;  // octave = pyramid level
+  cv::Mat descriptors;                  // CV_8U, 32 bytes a row
+  std::vector<float> u_right;           // px; -1: no stereo match or depth
+  std::vector<float> depth;             // m along the optical axis; -1: none
+  std::size_t size() const { return keypoints.size(); }
+
+  // Keypoints within radius px of (u, v) whose level lies in [min_level, max_level] (grid lookup).
+  std::vector<int> near(float u, float v, float radius, int min_level = 0, int max_level = 99) const;
+  void buildGrid(int width, int height);
+
+ private:
+  static constexpr int kCell = 16;  // px
+  int cols_ = 0, rows_ = 0;
+  std::vector<std::vector<int>> cells_;
+};
+
+class FeatureExtractor {
+ public:
+  explicit FeatureExtractor(const FeatureParams& params);
+  // image: 8-bit grey. Keypoints and descriptors only (u_right, depth set to -1).
+  Features extract(const cv::Mat& image) const;
+  const FeatureParams& params() const { return params_; }
+
+ private:
+  FeatureParams params_;
+  cv::Ptr<cv::ORB> orb_;
+};
+
+// Rectified stereo: for each left keypoint, the right keypoint on the same row band (the level's
+// noise, 2 px scaled) and of a similar level with the closest descriptor (Hamming <= 60, and
+// clearly better than the second best), its column refined to sub-pixel by matching a 7x7
+// patch along the row (parabola through the sum of absolute differences). Fills left.u_right and
+// left.depth for disparities in [min_disparity, max_disparity].
+void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, const Features& right, double bf,
+                 double min_disparity, double max_disparity, Features* left);
+
+// RGB-D: depth at each keypoint (metres = raw / depth_factor; 0 or invalid = none), u_R from bf.
+// depth: CV_16U or CV_32F, the image's size.
+void depthFromImage(const cv::Mat& depth, double depth_factor, double bf, Features* features);
+
+int hammingDistance(const cv::Mat& a, const cv::Mat& b);  // 32-byte rows
+
+}  // namespace rvwo::estimator

@@ -1,0 +1,94 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// What the RVWO estimator needs to know: the rig (camera, extrinsic, stereo baseline or depth
+// scale), the wheels' noise, the reliability model and the estimator's own knobs. readOptions()
+// fills it from a settings YAML (docs/rawlog.md, keys below); tests fill it by hand.
+//
+//   Sensor: "stereo" | "rgbd" | "mono"                   Camera.type: "PinHole" | "KannalaBrandt8"
+//   Camera1.fx/fy/cx/cy [px], Camera1.k1..k4 (fisheye)    Camera.width/height [px], Camera.fps [Hz]
+//   Stereo.b [m] (stereo; RGB-D: the virtual baseline, default 0.08)
+//   RGBD.DepthMapFactor [raw units per metre]             Camera.T_b_c, Odometry.T_b_o: 4x4 matrices
+//   Odometry.*, Reliability.*, Semantics.*                (rvwo/settings/settings.h)
+//   Estimator.*: the knobs of EstimatorOptions below, e.g. Estimator.Features: 1000
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <string>
+
+#include "rvwo/edges/camera.h"
+#include "rvwo/edges/se2_xyz_edge.h"
+#include "rvwo/edges/wheel_preintegration.h"
+#include "rvwo/kernels/reliability.h"
+#include "rvwo/kernels/semantic_priors.h"
+#include "rvwo/settings/settings.h"
+
+namespace rvwo::estimator {
+
+enum class Sensor { kStereo, kRgbd, kMono };
+// What the estimator fuses: wheels only (dead reckoning), vision only, or both (RVWO).
+enum class Mode { kWheel, kVo, kVw };
+// The robust kernel on the visual residuals: Huber (ORB-SLAM's), a fixed Barron shape, or each
+// landmark's shape from the reliability model (the paper's adaptive kernel, eq. 7).
+enum class KernelChoice { kHuber, kFixed, kAdaptive };
+
+struct Rig {
+  Sensor sensor = Sensor::kStereo;
+  std::shared_ptr<const CameraModel> camera;                // pinhole for stereo and RGB-D (rectified)
+  int width = 640, height = 480;                            // px
+  double fps = 30;                                          // Hz
+  double baseline = 0.12;                                   // m (RGB-D: virtual, for the u_R coordinate)
+  double depth_factor = 1000;                               // RGB-D raw depth units per metre
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();  // camera in the robot's base frame
+  SE2 T_b_o;                                                // odometry frame in the base frame
+  double bf() const;                                        // baseline * fx, px m
+};
+
+struct EstimatorOptions {
+  Mode mode = Mode::kVw;
+  KernelChoice kernel = KernelChoice::kAdaptive;
+  double fixed_alpha = 1.0;  // KernelChoice::kFixed
+  bool semantics = true;     // labels feed the reliability model (off: reprojection errors only)
+  // One thread, everything inline (local mapping and segmentation wait for each keyframe): the
+  // same input gives the same trajectory, bit for bit. Otherwise local mapping and segmentation
+  // run in threads of their own.
+  bool deterministic = false;
+
+  // ---- features (Estimator.Features, .ScaleFactor, .Levels, .FastThreshold)
+  int features = 1000;        // ORB keypoints per image, spread over a grid
+  double scale_factor = 1.2;  // pyramid
+  int levels = 8;
+  int fast_threshold = 12;
+  // ---- tracking
+  double search_radius = 12;        // px at level 0, projection search (Estimator.SearchRadius)
+  int min_inliers = 20;             // fewer: vision has failed this frame, the wheels carry the pose
+  double max_depth_baselines = 40;  // close points (ORB-SLAM's ThDepth): new points closer than this many baselines
+  // ---- keyframes and local mapping
+  int keyframe_max_frames = 15;  // a keyframe at least this often (frames) while tracking
+  double keyframe_ratio = 0.75;  // or when fewer than this share of the reference keyframe's points are tracked
+  int window = 8;                // keyframes optimised by local BA (Estimator.Window)
+  int keep_keyframes = 14;       // keyframes kept in memory (window + fixed neighbours)
+  // ---- noise
+  double sigma_px = 1.0;  // keypoint noise at level 0, px
+  OutOfPlaneNoise out_of_plane{0.01,
+                               Eigen::Matrix2d::Identity() * 1e-4};  // m, rad^2 (Estimator.SigmaZ, .SigmaRollPitch)
+  double huber_delta = 1.0;  // whitened units; chi2 gates 5.991 (mono) and 7.815 (stereo) classify outliers
+  WheelNoise wheel_noise;
+  DiffDriveParams drive;
+  ReliabilityParams reliability;
+  SemanticPriors priors = SemanticPriors::builtin("voc21");
+  int label_dilation_px = 8;  // widen dynamic classes' masks by this much (their edges are the least sure)
+
+  // Throws std::invalid_argument naming the setting of the first inconsistent value.
+  void validate() const;
+};
+
+// The rig from settings (Sensor, Camera.*, Camera1.*, Stereo.b, RGBD.DepthMapFactor,
+// Camera.T_b_c, Odometry.T_b_o). Throws std::invalid_argument "<file>: missing key <key>" or
+// naming the key of a wrong value.
+Rig readRig(const Settings& settings);
+// Estimator.*, Odometry.*, Reliability.*, Semantics.* over the given defaults (mode, kernel and
+// the switches stay as given: they are the caller's). Throws std::invalid_argument naming the key.
+EstimatorOptions readEstimatorOptions(const Settings& settings, EstimatorOptions defaults = {});
+
+}  // namespace rvwo::estimator

@@ -1,0 +1,1097 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+#include "rvwo/estimator/estimator.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
+#include <optional>
+#include <stdexcept>
+#include <thread>
+#include <unordered_map>
+
+#include "rvwo/ceres/barron_loss.h"
+#include "rvwo/ceres/costs.h"
+#include "rvwo/ceres/se2_manifold.h"
+#include "rvwo/edges/wheel_edge.h"
+#include "rvwo/estimator/features.h"
+#include "rvwo/kernels/barron.h"
+#include "rvwo/semantics/async_segmenter.h"
+#include "rvwo/semantics/label_lookup.h"
+
+namespace rvwo::estimator {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// ORB-SLAM's chi2 gates at 95 %: 2 DoF (mono), 3 DoF (stereo).
+constexpr double kChi2Mono = 5.991, kChi2Stereo = 7.815;
+
+struct KeyFrame {
+  std::uint64_t id = 0;
+  double t = 0;
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();  // T_w_b as (x, y, theta)
+  Features f;
+  std::vector<std::int64_t> point;  // per feature: map point id, -1 none
+  cv::Mat image;                    // kept until segmented
+  bool segmented = false;
+  int tracked = 0;  // points tracked when it was made
+};
+
+struct MapPoint {
+  std::uint64_t id = 0;
+  Eigen::Vector3d P = Eigen::Vector3d::Zero();  // world
+  cv::Mat descriptor;                           // 1 x 32
+  int level = 0;                                // pyramid level where it was made ...
+  double distance = 1;                          // ... and its distance from the camera then (m)
+  std::map<std::uint64_t, int> obs;             // keyframe id -> feature index
+  int visible = 0, found = 0;                   // frames it was predicted in view / matched in
+  std::uint64_t first_kf = 0;
+};
+
+// Frames' poses: relative to their reference keyframe, so that refining keyframes moves them.
+struct FrameRecord {
+  double t;
+  std::uint64_t ref_kf;
+  SE2 T_kf_b;
+  bool visual;
+};
+
+struct Match {
+  std::uint64_t point;
+  int feature;
+};
+
+class Timings {
+ public:
+  void add(const std::string& stage, double ms) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = std::find_if(stages_.begin(), stages_.end(), [&](const auto& s) { return s.first == stage; });
+    if (it == stages_.end()) {
+      stages_.emplace_back(stage, std::vector<double>{});
+      it = std::prev(stages_.end());
+    }
+    it->second.push_back(ms);
+  }
+  std::vector<std::pair<std::string, TimingStats>> stats() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::vector<std::pair<std::string, TimingStats>> out;
+    for (const auto& [name, v] : stages_) {
+      TimingStats s;
+      s.count = v.size();
+      if (!v.empty()) {
+        std::vector<double> sorted = v;
+        std::sort(sorted.begin(), sorted.end());
+        double sum = 0;
+        for (double x : v) sum += x;
+        s.mean = sum / v.size();
+        s.p95 = sorted[std::min(sorted.size() - 1, static_cast<std::size_t>(0.95 * sorted.size()))];
+        s.max = sorted.back();
+      }
+      out.emplace_back(name, s);
+    }
+    return out;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<std::pair<std::string, std::vector<double>>> stages_;
+};
+
+}  // namespace
+
+double Rig::bf() const { return baseline * camera->fx(); }
+
+void EstimatorOptions::validate() const {
+  auto fail = [](const std::string& what) { throw std::invalid_argument("estimator options: " + what); };
+  if (features < 50 || features > 20000) fail("Estimator.Features: 50 to 20000");
+  if (!(scale_factor > 1.0 && scale_factor < 2.0)) fail("Estimator.ScaleFactor: in (1, 2)");
+  if (levels < 1 || levels > 12) fail("Estimator.Levels: 1 to 12");
+  if (fast_threshold < 1 || fast_threshold > 100) fail("Estimator.FastThreshold: 1 to 100");
+  if (!(search_radius > 0)) fail("Estimator.SearchRadius: > 0");
+  if (min_inliers < 6) fail("Estimator.MinInliers: >= 6");
+  if (keyframe_max_frames < 1) fail("Estimator.KeyFrameMaxFrames: >= 1");
+  if (!(keyframe_ratio > 0 && keyframe_ratio < 1)) fail("Estimator.KeyFrameRatio: in (0, 1)");
+  if (window < 2) fail("Estimator.Window: >= 2");
+  if (keep_keyframes < window + 1) fail("Estimator.KeepKeyFrames: > Estimator.Window");
+  if (!(sigma_px > 0)) fail("Estimator.SigmaPx: > 0");
+  if (kernel == KernelChoice::kFixed && std::isnan(fixed_alpha)) fail("kernel fixed: alpha is NaN");
+  reliability.validate();
+  wheel_noise.validate();
+  drive.validate();
+}
+
+struct Estimator::Impl {
+  Rig rig;
+  EstimatorOptions opt;
+  FeatureExtractor extractor;
+  Se2XyzEdge<3> stereo_edge;
+  Se2XyzEdge<2> mono_edge;
+  ReliabilityManager reliability;
+  WheelOdometry odometry;
+  bool has_odometry = false;
+  std::shared_ptr<Segmenter> segmenter;
+  std::unique_ptr<AsyncSegmenter> async;
+  std::vector<int> dynamic_labels;
+  std::function<void(const PoseEstimate&)> callback;
+  Timings timings;
+
+  // ---- map (guarded by map_mutex) ----
+  mutable std::mutex map_mutex;
+  std::map<std::uint64_t, KeyFrame> keyframes;         // in memory, by id (= time order)
+  std::unordered_map<std::uint64_t, MapPoint> points;  // seen by keyframes in memory
+  std::map<std::uint64_t, SE2> final_pose;             // keyframes that left memory
+  std::vector<FrameRecord> frames;
+  std::uint64_t next_kf = 0, next_point = 0;
+  Report counters;
+
+  // ---- tracking state (tracking thread only) ----
+  std::deque<FrameInput> pending;
+  double last_t = -1;  // of the last processed frame
+  SE2 last_pose;       // its T_w_b (absolute, refreshed from its reference keyframe)
+  SE2 velocity;        // T_{k-1}_{k}: constant-velocity model without wheels
+  std::size_t last_frame_index = 0;
+  int frames_since_kf = 0;
+  bool has_last = false, last_visual = true;
+  double added_t = -1e300;  // last frame added
+
+  // ---- local mapping thread ----
+  std::thread mapper;
+  std::mutex queue_mutex;
+  std::condition_variable queue_cv, idle_cv;
+  std::deque<std::uint64_t> queue;
+  bool stop = false, busy = false;
+
+  Impl(const Rig& r, const EstimatorOptions& o, std::shared_ptr<Segmenter> seg)
+      : rig(r),
+        opt(o),
+        extractor(FeatureParams{o.features, o.scale_factor, o.levels, o.fast_threshold, 8, 6}),
+        stereo_edge(*r.camera, r.T_b_c, r.sensor == Sensor::kMono ? 1.0 : r.bf()),
+        mono_edge(*r.camera, r.T_b_c),
+        reliability(o.reliability),
+        odometry(o.wheel_noise, r.T_b_o),
+        segmenter(o.semantics ? std::move(seg) : nullptr) {
+    if (segmenter && !opt.deterministic) async = std::make_unique<AsyncSegmenter>(segmenter, 4, 256);
+    dynamic_labels = opt.priors.dynamicLabels();
+    if (!opt.deterministic) mapper = std::thread([this] { mappingLoop(); });
+  }
+
+  ~Impl() { stopMapper(); }
+
+  void stopMapper() {
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex);
+      stop = true;
+    }
+    queue_cv.notify_all();
+    if (mapper.joinable()) mapper.join();
+  }
+
+  // ================= helpers =================
+  SE2 kfPose(std::uint64_t id) const {
+    auto it = keyframes.find(id);
+    if (it != keyframes.end()) return SE2::fromVector(it->second.x);
+    auto f = final_pose.find(id);
+    return f != final_pose.end() ? f->second : SE2();
+  }
+
+  double kernelAlpha(std::uint64_t point) const {
+    switch (opt.kernel) {
+      case KernelChoice::kHuber:
+        return 1.0;  // unused
+      case KernelChoice::kFixed:
+        return opt.fixed_alpha;
+      case KernelChoice::kAdaptive:
+        return reliability.alpha(point);
+    }
+    return 1.0;
+  }
+
+  // IRLS weight rho'(s) of a residual with squared whitened norm s, scale c (= sqrt of the gate,
+  // so that Huber and Barron with alpha = 1 bend at the same place).
+  double weight(double s, double alpha, double c) const {
+    if (opt.kernel == KernelChoice::kHuber) {
+      const double r = std::sqrt(s);
+      return r <= c ? 1.0 : c / r;
+    }
+    double rho[3];
+    BarronKernel(alpha, c).evaluate(s, rho);
+    return rho[1];
+  }
+
+  bool hasStereo(const Features& f, int i) const { return rig.sensor != Sensor::kMono && f.u_right[i] >= 0; }
+
+  // Predicted pyramid level of a point seen from distance d.
+  int predictLevel(const MapPoint& p, double d) const {
+    const int l = p.level + static_cast<int>(std::lround(std::log(p.distance / d) / std::log(opt.scale_factor)));
+    return std::clamp(l, 0, opt.levels - 1);
+  }
+
+  // ================= tracking =================
+  std::vector<Match> searchByProjection(const Features& f, const Eigen::Vector3d& x, double radius_scale) {
+    std::vector<Match> matches;
+    std::vector<int> best_dist(f.size(), 256);
+    std::vector<std::int64_t> best_point(f.size(), -1);
+    const Eigen::Isometry3d T_c_w = [&] {
+      const SE2 T = SE2::fromVector(x);
+      Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
+      T_w_b.linear().topLeftCorner<2, 2>() = T.rotation();
+      T_w_b.translation().head<2>() = T.translation();
+      return (T_w_b * rig.T_b_c).inverse();
+    }();
+    for (auto& [id, p] : points) {
+      const Eigen::Vector3d P_c = T_c_w * p.P;
+      const double d = P_c.norm();
+      if (P_c.z() < 0.1 || d > 3 * p.distance || d < p.distance / 3) continue;
+      Eigen::Vector3d h;
+      if (!stereo_edge.predict(x, p.P, &h)) continue;
+      if (h.x() < 0 || h.y() < 0 || h.x() >= rig.width || h.y() >= rig.height) continue;
+      ++p.visible;
+      const int level = predictLevel(p, d);
+      const float r = static_cast<float>(opt.search_radius * radius_scale * std::pow(opt.scale_factor, level));
+      int best = 256, second = 256, best_i = -1;
+      for (int i : f.near(static_cast<float>(h.x()), static_cast<float>(h.y()), r, level - 1, level + 1)) {
+        if (rig.sensor != Sensor::kMono && f.u_right[i] >= 0 && std::fabs(f.u_right[i] - h.z()) > r) continue;
+        const int dist = hammingDistance(p.descriptor, f.descriptors.row(i));
+        if (dist < best) {
+          second = best;
+          best = dist;
+          best_i = i;
+        } else if (dist < second) {
+          second = dist;
+        }
+      }
+      if (best_i < 0 || best > 50 || best > 0.9 * second) continue;
+      if (best < best_dist[best_i]) {
+        best_dist[best_i] = best;
+        best_point[best_i] = static_cast<std::int64_t>(id);
+      }
+    }
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      if (best_point[i] >= 0) matches.push_back({static_cast<std::uint64_t>(best_point[i]), static_cast<int>(i)});
+    }
+    return matches;
+  }
+
+  // Pose-only optimisation on SE(2): iteratively reweighted Gauss-Newton with each landmark's
+  // kernel, in rounds (ORB-SLAM's): after each, residuals beyond the chi2 gate are outliers for
+  // the next. prior: the wheel edge from the previous frame (fixed) to this one.
+  int optimisePose(const Features& f, const std::vector<Match>& matches, const std::optional<WheelEdge>& prior,
+                   const Eigen::Vector3d& x_prev, Eigen::Vector3d* x, std::vector<char>* inlier,
+                   std::vector<double>* errors) {
+    const std::size_t n = matches.size();
+    inlier->assign(n, 1);
+    errors->assign(n, 0.0);
+    std::vector<double> alpha(n), sigma(n);
+    std::vector<char> usable(n, 1);
+    for (std::size_t k = 0; k < n; ++k) {
+      alpha[k] = kernelAlpha(matches[k].point);
+      if (opt.kernel != KernelChoice::kHuber && alpha[k] == -BarronKernel::kInfinity) usable[k] = 0;  // rejected
+      sigma[k] = opt.sigma_px * std::pow(opt.scale_factor, f.keypoints[matches[k].feature].octave);
+    }
+    int inliers = 0;
+    for (int round = 0; round < 4; ++round) {
+      // Square-root information at this round's linearisation point (eq. 10, out-of-plane inflation).
+      std::vector<Eigen::Matrix3d> S3(n);
+      std::vector<Eigen::Matrix2d> S2(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!usable[k]) continue;
+        const Eigen::Vector3d& P = points.at(matches[k].point).P;
+        if (hasStereo(f, matches[k].feature)) {
+          S3[k] = ceres_adapters::Se2XyzCost<3>::sqrtInformation(stereo_edge, *x, P, sigma[k], opt.out_of_plane);
+        } else {
+          S2[k] = ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono_edge, *x, P, sigma[k], opt.out_of_plane);
+        }
+      }
+      for (int it = 0; it < 10; ++it) {
+        Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+        Eigen::Vector3d g = Eigen::Vector3d::Zero();
+        for (std::size_t k = 0; k < n; ++k) {
+          if (!usable[k] || !(*inlier)[k]) continue;
+          const Match& m = matches[k];
+          const Eigen::Vector3d& P = points.at(m.point).P;
+          const cv::KeyPoint& kp = f.keypoints[m.feature];
+          if (hasStereo(f, m.feature)) {
+            Eigen::Vector3d r;
+            Eigen::Matrix3d J;
+            if (!stereo_edge.residual(*x, P, Eigen::Vector3d(kp.pt.x, kp.pt.y, f.u_right[m.feature]), &r, &J)) {
+              (*inlier)[k] = 0;
+              continue;
+            }
+            const Eigen::Vector3d rw = S3[k] * r;
+            const Eigen::Matrix3d Jw = S3[k] * J;
+            const double w = weight(rw.squaredNorm(), alpha[k], std::sqrt(kChi2Stereo));
+            H += w * Jw.transpose() * Jw;
+            g += w * Jw.transpose() * rw;
+          } else {
+            Eigen::Vector2d r;
+            Eigen::Matrix<double, 2, 3> J;
+            if (!mono_edge.residual(*x, P, Eigen::Vector2d(kp.pt.x, kp.pt.y), &r, &J)) {
+              (*inlier)[k] = 0;
+              continue;
+            }
+            const Eigen::Vector2d rw = S2[k] * r;
+            const Eigen::Matrix<double, 2, 3> Jw = S2[k] * J;
+            const double w = weight(rw.squaredNorm(), alpha[k], std::sqrt(kChi2Mono));
+            H += w * Jw.transpose() * Jw;
+            g += w * Jw.transpose() * rw;
+          }
+        }
+        if (prior) {
+          Eigen::Matrix3d Jj;
+          const Eigen::Vector3d r = prior->sqrtInformation() * prior->residual(x_prev, *x, nullptr, &Jj);
+          const Eigen::Matrix3d Jw = prior->sqrtInformation() * Jj;
+          H += Jw.transpose() * Jw;
+          g += Jw.transpose() * r;
+        }
+        H.diagonal().array() += 1e-9;
+        const Eigen::Vector3d dx = -H.ldlt().solve(g);
+        if (!dx.allFinite()) break;
+        *x += dx;
+        x->z() = wrapAngle(x->z());
+        if (dx.head<2>().norm() < 1e-6 && std::fabs(dx.z()) < 1e-7) break;
+      }
+      // Classify against the gate (every match, so that a rejected one may come back).
+      inliers = 0;
+      for (std::size_t k = 0; k < n; ++k) {
+        const Match& m = matches[k];
+        const Eigen::Vector3d& P = points.at(m.point).P;
+        const cv::KeyPoint& kp = f.keypoints[m.feature];
+        double chi2 = 1e9, gate = kChi2Mono;
+        if (hasStereo(f, m.feature)) {
+          Eigen::Vector3d r;
+          gate = kChi2Stereo;
+          if (stereo_edge.residual(*x, P, Eigen::Vector3d(kp.pt.x, kp.pt.y, f.u_right[m.feature]), &r))
+            chi2 = (ceres_adapters::Se2XyzCost<3>::sqrtInformation(stereo_edge, *x, P, sigma[k], opt.out_of_plane) * r)
+                       .squaredNorm();
+        } else {
+          Eigen::Vector2d r;
+          if (mono_edge.residual(*x, P, Eigen::Vector2d(kp.pt.x, kp.pt.y), &r))
+            chi2 = (ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono_edge, *x, P, sigma[k], opt.out_of_plane) * r)
+                       .squaredNorm();
+        }
+        (*errors)[k] = std::sqrt(chi2);
+        (*inlier)[k] = usable[k] && chi2 <= gate;
+        inliers += (*inlier)[k];
+      }
+    }
+    return inliers;
+  }
+
+  std::optional<WheelDelta> wheelDelta(double t0, double t1) const {
+    if (!has_odometry || opt.mode == Mode::kVo || odometry.empty()) return std::nullopt;
+    t0 = std::max(t0, odometry.firstTime());
+    t1 = std::min(t1, odometry.lastTime());
+    if (!(t1 > t0)) return std::nullopt;
+    return odometry.integrate(t0, t1);
+  }
+
+  void processFrame(const FrameInput& in) {
+    const double t = in.timestamp;
+    // ---- predict ----
+    std::optional<WheelDelta> delta;
+    SE2 predicted;
+    if (has_last) {
+      std::lock_guard<std::mutex> lock(map_mutex);
+      const FrameRecord& prev = frames.back();
+      last_pose = kfPose(prev.ref_kf) * prev.T_kf_b;
+    }
+    if (has_last) {
+      delta = wheelDeltaLocked(last_t, t);
+      predicted = delta ? last_pose * delta->pose() : last_pose * (opt.mode == Mode::kVo ? velocity : SE2());
+    }
+    FrameRecord record{t, 0, SE2(), false};
+    if (opt.mode == Mode::kWheel) {
+      {
+        std::lock_guard<std::mutex> lock(map_mutex);
+        if (final_pose.empty()) final_pose[0] = SE2();  // the world's origin
+      }
+      record.ref_kf = 0;
+      record.T_kf_b = predicted;
+      finishFrame(record, t);
+      return;
+    }
+
+    // ---- features ----
+    auto t0 = Clock::now();
+    Features f;
+    cv::Mat grey = toGrey(in.image);
+    if (rig.sensor == Sensor::kStereo) {
+      Features right;
+      cv::Mat grey_right = toGrey(in.right);
+      std::thread worker([&] { right = extractor.extract(grey_right); });
+      f = extractor.extract(grey);
+      worker.join();
+      timings.add("features", msSince(t0));
+      auto t1 = Clock::now();
+      matchStereo(grey, grey_right, right, rig.bf(), 0.5, rig.bf() / 0.2, &f);
+      timings.add("stereo", msSince(t1));
+    } else {
+      f = extractor.extract(grey);
+      if (rig.sensor == Sensor::kRgbd) depthFromImage(in.depth, rig.depth_factor, rig.bf(), &f);
+      timings.add("features", msSince(t0));
+    }
+
+    std::unique_lock<std::mutex> lock(map_mutex);
+    if (keyframes.empty() && final_pose.empty()) {
+      // ---- initialisation: the first keyframe at the world's origin, points from stereo or depth
+      // (metric: no visual initialisation to check against the wheels).
+      const int made = createKeyFrame(t, Eigen::Vector3d::Zero(), std::move(f), {}, grey);
+      record.ref_kf = next_kf - 1;
+      record.visual = made > 0;
+      lock.unlock();
+      queueKeyFrame(next_kf - 1);
+      finishFrame(record, t);
+      return;
+    }
+
+    // ---- track the local map ----
+    auto t2 = Clock::now();
+    Eigen::Vector3d x = predicted.vector();
+    std::vector<Match> matches = searchByProjection(f, x, last_visual ? 1.0 : 2.0);
+    if (static_cast<int>(matches.size()) < 2 * opt.min_inliers && !delta) {
+      matches = searchByProjection(f, x, 3.0);  // no wheels: the motion model may be far off
+    }
+    timings.add("match", msSince(t2));
+    auto t3 = Clock::now();
+    std::optional<WheelEdge> prior;
+    if (delta && opt.mode == Mode::kVw) {
+      try {
+        prior.emplace(*delta);
+      } catch (const std::invalid_argument&) {  // degenerate covariance (no motion, no floor)
+      }
+    }
+    std::vector<char> inlier;
+    std::vector<double> errors;
+    int inliers = 0;
+    if (!matches.empty()) {
+      inliers = optimisePose(f, matches, prior, last_pose.vector(), &x, &inlier, &errors);
+    }
+    timings.add("pose", msSince(t3));
+    const bool visual = inliers >= opt.min_inliers;
+    const SE2 T_w_b = visual ? SE2::fromVector(x) : predicted;
+    std::vector<std::int64_t> point_of(f.size(), -1);
+    if (visual) {
+      for (std::size_t k = 0; k < matches.size(); ++k) {
+        if (!inlier[k]) continue;
+        MapPoint& p = points.at(matches[k].point);
+        ++p.found;
+        point_of[matches[k].feature] = static_cast<std::int64_t>(p.id);
+      }
+    }
+    // Eq. 6: every matched landmark's latest whitened error (outliers included: that is the point).
+    if (visual && opt.kernel == KernelChoice::kAdaptive) {
+      for (std::size_t k = 0; k < matches.size(); ++k) reliability.observe(matches[k].point, std::nullopt, errors[k]);
+    }
+    ++frames_since_kf;
+    const std::uint64_t ref = std::prev(keyframes.end())->first;
+    const KeyFrame& ref_kf = keyframes.at(ref);
+    // ---- keyframe? ----
+    int close_tracked = 0, close_untracked = 0;
+    const double close = opt.max_depth_baselines * rig.baseline;
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      if (f.depth[i] <= 0 || f.depth[i] > close) continue;
+      (point_of[i] >= 0 ? close_tracked : close_untracked)++;
+    }
+    bool make_kf = false;
+    if (visual) {
+      make_kf = frames_since_kf >= opt.keyframe_max_frames ||
+                (frames_since_kf >= 2 && inliers < opt.keyframe_ratio * ref_kf.tracked) ||
+                (close_tracked < 100 && close_untracked > 70);
+    } else {
+      // Vision lost: once there is texture again, a keyframe at the wheels' pose starts the map
+      // anew from there (no jump); wheel edges tie it to the keyframes before.
+      const int with_depth =
+          static_cast<int>(std::count_if(f.depth.begin(), f.depth.end(), [](float d) { return d > 0; }));
+      make_kf = frames_since_kf >= 3 && with_depth >= 4 * opt.min_inliers;
+    }
+    if (make_kf) {
+      auto t4 = Clock::now();
+      createKeyFrame(t, T_w_b.vector(), std::move(f), point_of, grey, inliers);
+      record.ref_kf = next_kf - 1;
+      record.T_kf_b = SE2();
+      timings.add("keyframe", msSince(t4));
+    } else {
+      record.ref_kf = ref;
+      record.T_kf_b = SE2::fromVector(ref_kf.x).inverse() * T_w_b;
+    }
+    record.visual = visual;
+    lock.unlock();
+    if (make_kf) queueKeyFrame(next_kf - 1);
+    last_visual = visual;
+    finishFrame(record, t);
+  }
+
+  static cv::Mat toGrey(const cv::Mat& image) {
+    if (image.channels() == 1) return image;
+    cv::Mat grey;
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+    return grey;
+  }
+
+  void finishFrame(const FrameRecord& record, double t) {
+    PoseEstimate pe;
+    {
+      std::lock_guard<std::mutex> lock(map_mutex);
+      frames.push_back(record);
+      const SE2 pose = kfPose(record.ref_kf) * record.T_kf_b;
+      if (has_last) velocity = last_pose.inverse() * pose;
+      last_pose = pose;
+      pe = {t, pose, record.visual};
+      if (!record.visual && opt.mode != Mode::kWheel) {
+        ++counters.wheel_only_frames;
+        auto& iv = counters.wheel_only_intervals;
+        const double dt = 1.5 / rig.fps;
+        if (!iv.empty() && t - iv.back().second <= dt) {
+          iv.back().second = t;
+        } else {
+          iv.emplace_back(t, t);
+        }
+      }
+    }
+    last_t = t;
+    has_last = true;
+    if (callback) callback(pe);
+  }
+
+  // Makes a keyframe from the frame's features: tracked points become its observations, close
+  // untracked features with depth new points (at least 100 when there are). Returns the points made.
+  int createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std::vector<std::int64_t> point_of,
+                     const cv::Mat& grey, int tracked = 0) {
+    KeyFrame kf;
+    kf.id = next_kf++;
+    kf.t = t;
+    kf.x = x;
+    kf.f = std::move(f);
+    kf.tracked = tracked;
+    kf.point = point_of.empty() ? std::vector<std::int64_t>(kf.f.size(), -1) : std::move(point_of);
+    kf.image = grey;
+    for (std::size_t i = 0; i < kf.f.size(); ++i) {
+      if (kf.point[i] >= 0) points.at(kf.point[i]).obs[kf.id] = static_cast<int>(i);
+    }
+    // New points: untracked features with depth, nearest first; every close one, at least 100.
+    std::vector<int> cand;
+    for (std::size_t i = 0; i < kf.f.size(); ++i) {
+      if (kf.point[i] < 0 && kf.f.depth[i] > 0) cand.push_back(static_cast<int>(i));
+    }
+    std::sort(cand.begin(), cand.end(), [&](int a, int b) { return kf.f.depth[a] < kf.f.depth[b]; });
+    const double close = opt.max_depth_baselines * rig.baseline;
+    const SE2 T_w_b = SE2::fromVector(x);
+    int made = 0;
+    for (int i : cand) {
+      if (kf.f.depth[i] > close && made >= 100) break;
+      const cv::KeyPoint& kp = kf.f.keypoints[i];
+      const Eigen::Vector3d P_c = kf.f.depth[i] * rig.camera->unproject(Eigen::Vector2d(kp.pt.x, kp.pt.y));
+      const Eigen::Vector3d P_b = rig.T_b_c * P_c;
+      const Eigen::Vector2d xy = T_w_b.act(P_b.head<2>());
+      MapPoint p;
+      p.id = next_point++;
+      p.P = Eigen::Vector3d(xy.x(), xy.y(), P_b.z());
+      p.descriptor = kf.f.descriptors.row(i).clone();
+      p.level = kp.octave;
+      p.distance = P_c.norm();
+      p.obs[kf.id] = i;
+      p.visible = p.found = 1;
+      p.first_kf = kf.id;
+      kf.point[i] = static_cast<std::int64_t>(p.id);
+      points.emplace(p.id, std::move(p));
+      ++made;
+    }
+    counters.map_points_created += made;
+    if (kf.tracked == 0) kf.tracked = made;
+    frames_since_kf = 0;
+    const std::uint64_t id = kf.id;
+    keyframes.emplace(id, std::move(kf));
+    if (segmenter && async) {
+      async->submit(keyframes.at(id).image, FrameInfo{id, t});
+    }
+    return made;
+  }
+
+  // ================= local mapping =================
+  void queueKeyFrame(std::uint64_t id) {
+    if (opt.deterministic) {
+      mapKeyFrame(id);
+      return;
+    }
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex);
+      queue.push_back(id);
+    }
+    queue_cv.notify_one();
+  }
+
+  void mappingLoop() {
+    for (;;) {
+      std::uint64_t id;
+      {
+        std::unique_lock<std::mutex> lock(queue_mutex);
+        queue_cv.wait(lock, [&] { return stop || !queue.empty(); });
+        if (queue.empty()) return;  // stop, and nothing left
+        // Only the newest keyframe is worth a local BA: the ones before it are in its window.
+        id = queue.back();
+        queue.clear();
+        busy = true;
+      }
+      mapKeyFrame(id);
+      {
+        std::lock_guard<std::mutex> lock(queue_mutex);
+        busy = false;
+      }
+      idle_cv.notify_all();
+    }
+  }
+
+  void waitForMapper() {
+    if (opt.deterministic) return;
+    std::unique_lock<std::mutex> lock(queue_mutex);
+    idle_cv.wait(lock, [&] { return queue.empty() && !busy; });
+  }
+
+  // Labels of keyframes still in memory that have not had theirs: semantic observations of their
+  // points (eqs. 4, 5).
+  void applyLabels(bool wait) {
+    if (!segmenter) return;
+    struct Todo {
+      std::uint64_t id;
+      double t;
+      cv::Mat image;
+    };
+    std::vector<Todo> todo;
+    {
+      std::lock_guard<std::mutex> lock(map_mutex);
+      for (auto& [id, kf] : keyframes) {
+        if (!kf.segmented && !kf.image.empty()) todo.push_back({id, kf.t, kf.image});
+      }
+    }
+    for (auto& [id, t, image] : todo) {
+      std::optional<Segmentation> seg;
+      auto t0 = Clock::now();
+      if (!async) {
+        try {
+          seg = segmenter->segment(image, FrameInfo{id, t});
+        } catch (const std::exception&) {
+        }
+      } else {
+        seg = wait ? async->waitFor(id, std::chrono::milliseconds(2000)) : async->take(id);
+        if (!seg && !wait) {
+          // Dropped or failed ones never come: stop waiting for them once newer keyframes are done.
+          continue;
+        }
+      }
+      if (!async) timings.add("segmentation", msSince(t0));
+      std::lock_guard<std::mutex> lock(map_mutex);
+      auto it = keyframes.find(id);
+      if (it == keyframes.end()) continue;
+      KeyFrame& kf = it->second;
+      kf.segmented = true;
+      kf.image.release();
+      if (!seg) continue;
+      ++counters.segmented_keyframes;
+      const LabelLookup lookup(*seg, dynamic_labels, opt.label_dilation_px);
+      for (std::size_t i = 0; i < kf.f.size(); ++i) {
+        if (kf.point[i] < 0) continue;
+        const int label = lookup.labelAt(kf.f.keypoints[i].pt);
+        if (label < 0) continue;
+        reliability.observe(static_cast<std::uint64_t>(kf.point[i]), opt.priors.prior(label), std::nullopt);
+      }
+    }
+  }
+
+  void mapKeyFrame(std::uint64_t id) {
+    (void)id;
+    auto t0 = Clock::now();
+    applyLabels(opt.deterministic);
+    cullPoints();
+    localBundleAdjustment();
+    dropOldKeyFrames();
+    timings.add("local mapping", msSince(t0));
+  }
+
+  // Points found in fewer than a quarter of the frames that should have seen them, or seen by
+  // one keyframe only two keyframes after their birth: gone (ORB-SLAM's culling).
+  void cullPoints() {
+    std::lock_guard<std::mutex> lock(map_mutex);
+    if (keyframes.empty()) return;
+    const std::uint64_t newest = std::prev(keyframes.end())->first;
+    for (auto it = points.begin(); it != points.end();) {
+      const MapPoint& p = it->second;
+      const bool rarely_found = p.visible >= 8 && p.found < 0.25 * p.visible;
+      const bool lonely = newest >= p.first_kf + 3 && p.obs.size() <= 1 && rig.sensor == Sensor::kMono;
+      if (rarely_found || lonely || p.obs.empty()) {
+        eraseObservations(p);
+        reliability.forget(it->first);
+        it = points.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  }
+
+  void eraseObservations(const MapPoint& p) {
+    for (const auto& [kf_id, feature] : p.obs) {
+      auto kf = keyframes.find(kf_id);
+      if (kf != keyframes.end()) kf->second.point[feature] = -1;
+    }
+  }
+
+  void localBundleAdjustment() {
+    auto t0 = Clock::now();
+    // ---- snapshot under the lock ----
+    struct Obs {
+      std::size_t kf, point;
+      int feature;
+      Eigen::Vector3d z;
+      bool stereo;
+      double sigma;
+      std::uint64_t point_id, kf_id;
+    };
+    std::vector<std::uint64_t> kf_ids;
+    std::vector<Eigen::Vector3d> x;
+    std::vector<double> kf_t;
+    std::vector<char> fixed;
+    std::vector<std::uint64_t> point_ids;
+    std::vector<Eigen::Vector3d> P;
+    std::vector<double> alpha;
+    std::vector<Obs> obs;
+    {
+      std::lock_guard<std::mutex> lock(map_mutex);
+      if (keyframes.size() < 2) return;
+      std::vector<std::uint64_t> all;
+      for (const auto& kv : keyframes) all.push_back(kv.first);
+      const std::size_t first_var = all.size() > static_cast<std::size_t>(opt.window) ? all.size() - opt.window : 0;
+      std::unordered_map<std::uint64_t, std::size_t> kf_index, point_index;
+      // Window keyframes are variables; the one just before the window is fixed (it carries the
+      // gauge and the wheel edge into the window); at the start the first keyframe is fixed.
+      const std::size_t from = first_var > 0 ? first_var - 1 : 0;
+      for (std::size_t i = from; i < all.size(); ++i) {
+        kf_index[all[i]] = kf_ids.size();
+        kf_ids.push_back(all[i]);
+        x.push_back(keyframes.at(all[i]).x);
+        kf_t.push_back(keyframes.at(all[i]).t);
+        fixed.push_back(i == from);
+      }
+      for (std::size_t i = first_var; i < all.size(); ++i) {
+        const KeyFrame& kf = keyframes.at(all[i]);
+        for (std::size_t j = 0; j < kf.f.size(); ++j) {
+          if (kf.point[j] < 0) continue;
+          const std::uint64_t pid = static_cast<std::uint64_t>(kf.point[j]);
+          if (point_index.count(pid)) continue;
+          const double a = kernelAlpha(pid);
+          if (opt.kernel != KernelChoice::kHuber && a == -BarronKernel::kInfinity) continue;  // rejected
+          point_index[pid] = point_ids.size();
+          point_ids.push_back(pid);
+          P.push_back(points.at(pid).P);
+          alpha.push_back(a);
+        }
+      }
+      // Observations of those points by keyframes in the problem; others in memory join fixed.
+      for (std::size_t pi = 0; pi < point_ids.size(); ++pi) {
+        for (const auto& [kf_id, feature] : points.at(point_ids[pi]).obs) {
+          auto ki = kf_index.find(kf_id);
+          if (ki == kf_index.end()) {
+            if (!keyframes.count(kf_id)) continue;
+            ki = kf_index.emplace(kf_id, kf_ids.size()).first;
+            kf_ids.push_back(kf_id);
+            x.push_back(keyframes.at(kf_id).x);
+            kf_t.push_back(keyframes.at(kf_id).t);
+            fixed.push_back(1);
+          }
+          const Features& f = keyframes.at(kf_id).f;
+          const cv::KeyPoint& kp = f.keypoints[feature];
+          Obs o{ki->second,
+                pi,
+                feature,
+                Eigen::Vector3d(kp.pt.x, kp.pt.y, f.u_right[feature]),
+                hasStereo(f, feature),
+                opt.sigma_px * std::pow(opt.scale_factor, kp.octave),
+                point_ids[pi],
+                kf_id};
+          obs.push_back(o);
+        }
+      }
+    }
+    // ---- solve without the lock ----
+    ceres::Problem::Options po;
+    po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+    po.enable_fast_removal = true;  // outliers leave between the rounds
+    ceres::Problem problem(po);
+    std::vector<ceres::ResidualBlockId> blocks(obs.size(), nullptr);
+    auto loss = [&](double a, double gate) -> ceres::LossFunction* {
+      if (opt.kernel == KernelChoice::kHuber) return new ceres::HuberLoss(std::sqrt(gate));
+      return new ceres_adapters::BarronLoss(a, std::sqrt(gate));
+    };
+    for (std::size_t k = 0; k < obs.size(); ++k) {
+      const Obs& o = obs[k];
+      Eigen::Vector3d h;
+      if (!stereo_edge.predict(x[o.kf], P[o.point], &h)) continue;
+      if (o.stereo) {
+        const Eigen::Matrix3d S =
+            ceres_adapters::Se2XyzCost<3>::sqrtInformation(stereo_edge, x[o.kf], P[o.point], o.sigma, opt.out_of_plane);
+        blocks[k] = problem.AddResidualBlock(new ceres_adapters::Se2XyzCost<3>(stereo_edge, o.z, S),
+                                             loss(alpha[o.point], kChi2Stereo), x[o.kf].data(), P[o.point].data());
+      } else {
+        const Eigen::Matrix2d S =
+            ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono_edge, x[o.kf], P[o.point], o.sigma, opt.out_of_plane);
+        blocks[k] = problem.AddResidualBlock(new ceres_adapters::Se2XyzCost<2>(mono_edge, o.z.head<2>(), S),
+                                             loss(alpha[o.point], kChi2Mono), x[o.kf].data(), P[o.point].data());
+      }
+    }
+    if (opt.mode == Mode::kVw) {
+      // Wheel edges between consecutive keyframes of the window (and from the fixed one before it).
+      std::vector<std::size_t> order;
+      for (std::size_t i = 0; i < kf_ids.size(); ++i) order.push_back(i);
+      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return kf_ids[a] < kf_ids[b]; });
+      for (std::size_t k = 0; k + 1 < order.size(); ++k) {
+        const std::size_t a = order[k], b = order[k + 1];
+        if (fixed[a] && fixed[b]) continue;
+        const std::optional<WheelDelta> d = wheelDeltaLocked(kf_t[a], kf_t[b]);
+        if (!d) continue;
+        try {
+          problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(*d)), nullptr, x[a].data(), x[b].data());
+        } catch (const std::invalid_argument&) {
+        }
+      }
+    }
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      if (!problem.HasParameterBlock(x[i].data())) continue;
+      problem.SetManifold(x[i].data(), new ceres_adapters::SE2Manifold);
+      if (fixed[i]) problem.SetParameterBlockConstant(x[i].data());
+    }
+    ceres::Solver::Options so;
+    // The reduced camera system is small (a window of poses, 3 each): dense Schur beats sparse.
+    so.linear_solver_type = ceres::DENSE_SCHUR;
+    so.num_threads = 1;
+    so.max_num_iterations = 5;
+    so.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    auto chi2Of = [&](const Obs& o, double* e) {
+      if (o.stereo) {
+        Eigen::Vector3d r;
+        if (!stereo_edge.residual(x[o.kf], P[o.point], o.z, &r)) return false;
+        *e = (ceres_adapters::Se2XyzCost<3>::sqrtInformation(stereo_edge, x[o.kf], P[o.point], o.sigma,
+                                                             opt.out_of_plane) *
+              r)
+                 .squaredNorm();
+      } else {
+        Eigen::Vector2d r;
+        if (!mono_edge.residual(x[o.kf], P[o.point], o.z.head<2>(), &r)) return false;
+        *e =
+            (ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono_edge, x[o.kf], P[o.point], o.sigma, opt.out_of_plane) *
+             r)
+                .squaredNorm();
+      }
+      return true;
+    };
+    if (problem.NumResidualBlocks() > 0) {
+      ceres::Solve(so, &problem, &summary);
+      // Outliers leave the second round (ORB-SLAM's two-stage local BA).
+      for (std::size_t k = 0; k < obs.size(); ++k) {
+        double chi2 = 0;
+        if (blocks[k] && (!chi2Of(obs[k], &chi2) || chi2 > (obs[k].stereo ? kChi2Stereo : kChi2Mono))) {
+          problem.RemoveResidualBlock(blocks[k]);
+          blocks[k] = nullptr;
+        }
+      }
+      // A point whose every edge left would make the Schur complement singular: it leaves too.
+      std::vector<int> edges_left(P.size(), 0);
+      for (std::size_t k = 0; k < obs.size(); ++k) edges_left[obs[k].point] += blocks[k] != nullptr;
+      for (std::size_t pi = 0; pi < P.size(); ++pi) {
+        if (edges_left[pi] == 0 && problem.HasParameterBlock(P[pi].data())) problem.RemoveParameterBlock(P[pi].data());
+      }
+      so.max_num_iterations = 10;
+      ceres::Solve(so, &problem, &summary);
+    }
+    timings.add("local BA", msSince(t0));
+    // ---- write back under the lock ----
+    std::lock_guard<std::mutex> lock(map_mutex);
+    if (!summary.IsSolutionUsable() && problem.NumResidualBlocks() > 0) return;
+    for (std::size_t i = 0; i < kf_ids.size(); ++i) {
+      if (fixed[i]) continue;
+      auto it = keyframes.find(kf_ids[i]);
+      if (it != keyframes.end()) it->second.x = x[i];
+    }
+    std::vector<double> sum(P.size(), 0.0);
+    std::vector<int> count(P.size(), 0);
+    for (std::size_t k = 0; k < obs.size(); ++k) {
+      const Obs& o = obs[k];
+      double chi2 = 1e9;
+      const bool ok = chi2Of(o, &chi2);
+      sum[o.point] += std::min(chi2, 1e4);
+      ++count[o.point];
+      if (!ok || chi2 > (o.stereo ? kChi2Stereo : kChi2Mono)) {  // the observation goes
+        auto p = points.find(o.point_id);
+        if (p != points.end()) p->second.obs.erase(o.kf_id);
+        auto kf = keyframes.find(o.kf_id);
+        if (kf != keyframes.end()) kf->second.point[o.feature] = -1;
+      }
+    }
+    for (std::size_t pi = 0; pi < P.size(); ++pi) {
+      auto p = points.find(point_ids[pi]);
+      if (p == points.end()) continue;
+      p->second.P = P[pi];
+      // Eq. 6: the landmark's RMS whitened error over the window.
+      if (opt.kernel == KernelChoice::kAdaptive && count[pi] > 0)
+        reliability.observe(point_ids[pi], std::nullopt, std::sqrt(sum[pi] / count[pi]));
+    }
+  }
+
+  std::optional<WheelDelta> wheelDeltaLocked(double t0, double t1) {
+    std::lock_guard<std::mutex> lock(odometry_mutex);
+    return wheelDelta(t0, t1);
+  }
+  std::mutex odometry_mutex;  // the wheel buffer is written by tracking, read by mapping
+
+  // Keyframes beyond keep_keyframes leave memory: their poses are final, their points forgotten
+  // when no keyframe in memory sees them, the wheel readings before them dropped.
+  void dropOldKeyFrames() {
+    std::lock_guard<std::mutex> lock(map_mutex);
+    while (keyframes.size() > static_cast<std::size_t>(opt.keep_keyframes)) {
+      auto it = keyframes.begin();
+      const KeyFrame& kf = it->second;
+      final_pose[kf.id] = SE2::fromVector(kf.x);
+      for (std::size_t i = 0; i < kf.f.size(); ++i) {
+        if (kf.point[i] < 0) continue;
+        auto p = points.find(kf.point[i]);
+        if (p == points.end()) continue;
+        p->second.obs.erase(kf.id);
+        if (p->second.obs.empty()) {
+          if (reliability.alpha(p->first) == -BarronKernel::kInfinity) ++counters.map_points_rejected;
+          reliability.forget(p->first);
+          points.erase(p);
+        }
+      }
+      keyframes.erase(it);
+    }
+    if (!keyframes.empty()) {
+      std::lock_guard<std::mutex> olock(odometry_mutex);
+      if (!odometry.empty()) odometry.dropBefore(keyframes.begin()->second.t - 1.0);
+    }
+  }
+
+  // ================= input =================
+  void drain(bool all) {
+    // A frame waits until the odometry has passed its time (so its prediction has the readings
+    // that straddle it), for at most a second of frames.
+    while (!pending.empty()) {
+      const double t = pending.front().timestamp;
+      bool ready = all || opt.mode == Mode::kVo || pending.size() > static_cast<std::size_t>(rig.fps) + 1;
+      if (!ready) {
+        std::lock_guard<std::mutex> lock(odometry_mutex);
+        ready = !odometry.empty() && odometry.lastTime() >= t;
+      }
+      if (!ready) break;
+      FrameInput in = std::move(pending.front());
+      pending.pop_front();
+      processFrame(in);
+    }
+  }
+};
+
+Estimator::Estimator(const Rig& rig, const EstimatorOptions& options, std::shared_ptr<Segmenter> segmenter) {
+  options.validate();
+  if (!rig.camera) throw std::invalid_argument("estimator: the rig has no camera");
+  if (rig.sensor != Sensor::kMono && rig.camera->kind() != CameraModel::Kind::kPinhole)
+    throw std::invalid_argument("estimator: stereo and RGB-D need a rectified pinhole camera");
+  if (!(rig.baseline > 0)) throw std::invalid_argument("estimator: Stereo.b must be > 0");
+  if (rig.width <= 0 || rig.height <= 0 || !(rig.fps > 0))
+    throw std::invalid_argument("estimator: Camera.width, Camera.height and Camera.fps must be > 0");
+  impl_ = std::make_unique<Impl>(rig, options, std::move(segmenter));
+}
+
+Estimator::~Estimator() = default;
+
+void Estimator::addOdometryPose(double t, const SE2& T_odom_o) {
+  {
+    std::lock_guard<std::mutex> lock(impl_->odometry_mutex);
+    impl_->odometry.addPose(t, T_odom_o);
+    impl_->has_odometry = true;
+  }
+  impl_->drain(false);
+}
+
+void Estimator::addWheelAngles(double t, double q_left, double q_right) {
+  {
+    std::lock_guard<std::mutex> lock(impl_->odometry_mutex);
+    impl_->odometry.addWheelAngles(t, q_left, q_right, impl_->opt.drive);
+    impl_->has_odometry = true;
+  }
+  impl_->drain(false);
+}
+
+void Estimator::addWheelSpeeds(double t, double w_left, double w_right) {
+  {
+    std::lock_guard<std::mutex> lock(impl_->odometry_mutex);
+    impl_->odometry.addWheelSpeeds(t, w_left, w_right, impl_->opt.drive);
+    impl_->has_odometry = true;
+  }
+  impl_->drain(false);
+}
+
+void Estimator::addFrame(const FrameInput& frame) {
+  Impl& s = *impl_;
+  if (!std::isfinite(frame.timestamp) || frame.timestamp <= s.added_t)
+    throw std::invalid_argument("frame at t = " + std::to_string(frame.timestamp) +
+                                ": timestamp not after the previous frame's");
+  auto checkImage = [&](const cv::Mat& m, const char* what) {
+    if (m.empty()) throw std::invalid_argument(std::string("frame: no ") + what + " image");
+    if (m.cols != s.rig.width || m.rows != s.rig.height)
+      throw std::invalid_argument(std::string("frame: ") + what + " image is " + std::to_string(m.cols) + "x" +
+                                  std::to_string(m.rows) + ", the settings say " + std::to_string(s.rig.width) + "x" +
+                                  std::to_string(s.rig.height));
+    if (m.depth() != CV_8U && std::string(what) != "depth")
+      throw std::invalid_argument(std::string("frame: ") + what + " image is not 8-bit");
+  };
+  if (s.opt.mode != Mode::kWheel) {
+    checkImage(frame.image, "camera");
+    if (s.rig.sensor == Sensor::kStereo) checkImage(frame.right, "right");
+    if (s.rig.sensor == Sensor::kRgbd) {
+      checkImage(frame.depth, "depth");
+      if (frame.depth.type() != CV_16U && frame.depth.type() != CV_32F)
+        throw std::invalid_argument("frame: depth image is neither 16-bit nor float");
+    }
+  }
+  s.added_t = frame.timestamp;
+  s.pending.push_back(frame);
+  s.drain(false);
+}
+
+void Estimator::finish() {
+  Impl& s = *impl_;
+  s.drain(true);
+  s.waitForMapper();
+  if (!s.keyframes.empty() && s.opt.mode != Mode::kWheel) {
+    s.applyLabels(true);
+    s.localBundleAdjustment();  // the last keyframes get their full share of refinement
+  }
+}
+
+std::vector<PoseEstimate> Estimator::trajectory() const {
+  std::lock_guard<std::mutex> lock(impl_->map_mutex);
+  std::vector<PoseEstimate> out;
+  out.reserve(impl_->frames.size());
+  for (const FrameRecord& f : impl_->frames) out.push_back({f.t, impl_->kfPose(f.ref_kf) * f.T_kf_b, f.visual});
+  return out;
+}
+
+Report Estimator::report() const {
+  std::lock_guard<std::mutex> lock(impl_->map_mutex);
+  Report r = impl_->counters;
+  r.frames = impl_->frames.size();
+  r.keyframes = impl_->next_kf;
+  r.timings = impl_->timings.stats();
+  return r;
+}
+
+void Estimator::setFrameCallback(std::function<void(const PoseEstimate&)> callback) {
+  impl_->callback = std::move(callback);
+}
+
+}  // namespace rvwo::estimator
