@@ -222,7 +222,7 @@ struct Estimator::Impl {
       return r <= c ? 1.0 : c / r;
     }
     double rho[3];
-    BarronKernel(alpha, c).evaluate(s, rho);
+    BarronKernel(alpha, c * opt.barron_scale).evaluate(s, rho);
     return rho[1];
   }
 
@@ -345,11 +345,14 @@ struct Estimator::Impl {
           }
         }
         if (prior) {
+          // Huber on the wheel edge too: when the wheels slip they disagree with every visual
+          // edge at once, and a quadratic wheel term would drag the pose along with them.
           Eigen::Matrix3d Jj;
           const Eigen::Vector3d r = prior->sqrtInformation() * prior->residual(x_prev, *x, nullptr, &Jj);
           const Eigen::Matrix3d Jw = prior->sqrtInformation() * Jj;
-          H += Jw.transpose() * Jw;
-          g += Jw.transpose() * r;
+          const double w = std::min(1.0, std::sqrt(kChi2Stereo) / std::max(r.norm(), 1e-12));
+          H += w * Jw.transpose() * Jw;
+          g += w * Jw.transpose() * r;
         }
         H.diagonal().array() += 1e-9;
         const Eigen::Vector3d dx = -H.ldlt().solve(g);
@@ -826,7 +829,7 @@ struct Estimator::Impl {
     std::vector<ceres::ResidualBlockId> blocks(obs.size(), nullptr);
     auto loss = [&](double a, double gate) -> ceres::LossFunction* {
       if (opt.kernel == KernelChoice::kHuber) return new ceres::HuberLoss(std::sqrt(gate));
-      return new ceres_adapters::BarronLoss(a, std::sqrt(gate));
+      return new ceres_adapters::BarronLoss(a, opt.barron_scale * std::sqrt(gate));
     };
     for (std::size_t k = 0; k < obs.size(); ++k) {
       const Obs& o = obs[k];
@@ -855,7 +858,9 @@ struct Estimator::Impl {
         const std::optional<WheelDelta> d = wheelDeltaLocked(kf_t[a], kf_t[b]);
         if (!d) continue;
         try {
-          problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(*d)), nullptr, x[a].data(), x[b].data());
+          // Huber: a wheel edge across a slip must not outweigh the visual edges (see optimisePose).
+          problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(*d)),
+                                   new ceres::HuberLoss(std::sqrt(kChi2Stereo)), x[a].data(), x[b].data());
         } catch (const std::invalid_argument&) {
         }
       }

@@ -97,13 +97,13 @@ Features FeatureExtractor::extract(const cv::Mat& image) const {
 
 namespace {
 
-// Sum of absolute differences of 7x7 patches centred at (ul, v) in left and (ur, v) in right.
-int patchSad(const cv::Mat& left, const cv::Mat& right, int ul, int ur, int v) {
+// Sum of absolute differences of (2h+1)^2 patches centred at (ul, v) in left and (ur, v) in right.
+int patchSad(const cv::Mat& left, const cv::Mat& right, int ul, int ur, int v, int h) {
   int sad = 0;
-  for (int dy = -3; dy <= 3; ++dy) {
-    const uchar* a = left.ptr<uchar>(v + dy) + ul - 3;
-    const uchar* b = right.ptr<uchar>(v + dy) + ur - 3;
-    for (int dx = 0; dx < 7; ++dx) sad += std::abs(int(a[dx]) - int(b[dx]));
+  for (int dy = -h; dy <= h; ++dy) {
+    const uchar* a = left.ptr<uchar>(v + dy) + ul - h;
+    const uchar* b = right.ptr<uchar>(v + dy) + ur - h;
+    for (int dx = 0; dx <= 2 * h; ++dx) sad += std::abs(int(a[dx]) - int(b[dx]));
   }
   return sad;
 }
@@ -142,22 +142,25 @@ void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, const Fe
       }
     }
     if (best_j < 0 || best > 0.9 * second) continue;
-    // Sub-pixel: SAD of 7x7 patches along the row, +-2 px around the match, then a parabola.
+    // Sub-pixel: SAD of patches along the row, +-3 px around the match, then a parabola. The
+    // patch grows with the keypoint's level (3 px half-width at level 0): a coarse corner's
+    // position is only known to its level's pixel, and a small patch there may see flat grey.
+    const int h = 3 + kl.octave;
     const int ul = static_cast<int>(std::lround(kl.pt.x)), v = row;
     const int ur0 = static_cast<int>(std::lround(right.keypoints[best_j].pt.x));
     double ur = right.keypoints[best_j].pt.x;
-    if (v >= 3 && v < rows - 3 && ul >= 3 && ul < left_image.cols - 3 && ur0 - 3 >= 3 &&
-        ur0 + 3 < right_image.cols - 3) {
-      int sad[7];
-      for (int k = -3; k <= 3; ++k) sad[k + 3] = patchSad(left_image, right_image, ul, ur0 + k, v);
+    if (v >= h && v < rows - h && ul >= h && ul < left_image.cols - h && ur0 - 4 >= h &&
+        ur0 + 4 < right_image.cols - h) {
+      int sad[9];
+      for (int k = -4; k <= 4; ++k) sad[k + 4] = patchSad(left_image, right_image, ul, ur0 + k, v, h);
       int m = 1;
-      for (int k = 2; k <= 5; ++k) {
+      for (int k = 2; k <= 7; ++k) {
         if (sad[k] < sad[m]) m = k;
       }
       const double a = sad[m - 1], b = sad[m], c = sad[m + 1], den = a - 2 * b + c;
       const double offset = den > 0 ? 0.5 * (a - c) / den : 0.0;
       // The patch is centred on the rounded left keypoint: carry its own rounding over.
-      if (std::fabs(offset) <= 1.0) ur = ur0 + (m - 3) + offset + (kl.pt.x - ul);
+      if (std::fabs(offset) <= 1.0) ur = ur0 + (m - 4) + offset + (kl.pt.x - ul);
     }
     const double disparity = kl.pt.x - ur;
     if (disparity < min_disparity || disparity > max_disparity) continue;

@@ -89,6 +89,7 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Estimator.Window", &o.window);
   num("Estimator.KeepKeyFrames", &o.keep_keyframes);
   num("Estimator.SigmaPx", &o.sigma_px);
+  num("Estimator.BarronScale", &o.barron_scale);
   num("Estimator.LabelDilation", &o.label_dilation_px);
   num("Estimator.SigmaZ", &o.out_of_plane.sigma_z);
   if (const auto v = s.number("Estimator.SigmaRollPitch"))

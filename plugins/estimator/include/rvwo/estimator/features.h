@@ -50,9 +50,9 @@ class FeatureExtractor {
 
 // Rectified stereo: for each left keypoint, the right keypoint on the same row band (the level's
 // noise, 2 px scaled) and of a similar level with the closest descriptor (Hamming <= 60, and
-// clearly better than the second best), its column refined to sub-pixel by matching a 7x7
-// patch along the row (parabola through the sum of absolute differences). Fills left.u_right and
-// left.depth for disparities in [min_disparity, max_disparity].
+// clearly better than the second best), its column refined to sub-pixel by matching a patch
+// (7x7 at level 0, wider at coarser levels) along the row (parabola through the sum of absolute differences). Fills
+// left.u_right and left.depth for disparities in [min_disparity, max_disparity].
 void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, const Features& right, double bf,
                  double min_disparity, double max_disparity, Features* left);
 

@@ -1,0 +1,171 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// The estimator's parts that can be checked in isolation: stereo depth from a pair with a known
+// disparity, RGB-D depth lookup, settings, bad frames. (End to end on simulated sequences:
+// tests/apps/replay_test.cc.)
+#include "rvwo/estimator/estimator.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "rvwo/estimator/features.h"
+
+namespace {
+
+using namespace rvwo::estimator;
+
+// A texture of grey rectangles on a grey background, like the simulator's walls.
+cv::Mat texture(unsigned seed, int w = 640, int h = 480) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> x(0, w - 1), y(0, h - 1), size(6, 30), grey(0, 255);
+  cv::Mat img(h, w, CV_8U, cv::Scalar(128));
+  for (int i = 0; i < 700; ++i) {
+    const cv::Point p(x(rng), y(rng));
+    cv::rectangle(img, p, p + cv::Point(size(rng), size(rng)), cv::Scalar(grey(rng)), cv::FILLED);
+  }
+  cv::GaussianBlur(img, img, cv::Size(3, 3), 0.8);
+  return img;
+}
+
+TEST(Features, SpreadOverTheGridAndWithinBudget) {
+  const cv::Mat img = texture(1);
+  FeatureParams p;
+  p.features = 600;
+  const Features f = FeatureExtractor(p).extract(img);
+  EXPECT_LE(f.size(), 600u);
+  EXPECT_GE(f.size(), 500u);
+  EXPECT_EQ(f.descriptors.rows, static_cast<int>(f.size()));
+  // Every cell of a 4x3 grid gets a share.
+  int cells[12] = {0};
+  for (const auto& k : f.keypoints) ++cells[std::min(2, int(k.pt.y / 160)) * 4 + std::min(3, int(k.pt.x / 160))];
+  for (int c : cells) EXPECT_GT(c, 20);
+  // near() finds exactly the keypoints within the radius.
+  const auto near = f.near(320, 240, 40);
+  std::size_t brute = 0;
+  for (const auto& k : f.keypoints) brute += std::hypot(k.pt.x - 320, k.pt.y - 240) <= 40;
+  EXPECT_EQ(near.size(), brute);
+}
+
+TEST(Features, StereoDepthFromAKnownSubPixelDisparity) {
+  const cv::Mat left = texture(2);
+  for (double d : {9.0, 15.3, 30.7}) {
+    cv::Mat right;
+    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -d, 0, 1, 0);
+    cv::warpAffine(left, right, shift, left.size(), cv::INTER_LINEAR);
+    const FeatureExtractor ex{FeatureParams{}};
+    Features fl = ex.extract(left);
+    const Features fr = ex.extract(right);
+    const double bf = 48.0;
+    matchStereo(left, right, fr, bf, 0.5, 200, &fl);
+    std::vector<double> err;
+    for (std::size_t i = 0; i < fl.size(); ++i) {
+      if (fl.depth[i] <= 0 || fl.keypoints[i].pt.x < d + 10) continue;
+      err.push_back(std::fabs(fl.keypoints[i].pt.x - fl.u_right[i] - d));
+      EXPECT_NEAR(fl.depth[i], bf / (fl.keypoints[i].pt.x - fl.u_right[i]), 1e-3);
+    }
+    ASSERT_GT(err.size(), 0.6 * fl.size()) << "disparity " << d;
+    std::sort(err.begin(), err.end());
+    EXPECT_LT(err[err.size() / 2], 0.15) << "median disparity error, disparity " << d;  // sub-pixel
+    EXPECT_LT(err[err.size() * 95 / 100], 0.6) << "95th percentile, disparity " << d;
+  }
+}
+
+TEST(Features, DepthImageGivesURight) {
+  Features f;
+  f.keypoints = {cv::KeyPoint(10.2f, 20.0f, 31), cv::KeyPoint(30.0f, 5.0f, 31), cv::KeyPoint(-1.0f, 5.0f, 31)};
+  f.u_right.assign(3, -1);
+  f.depth.assign(3, -1);
+  cv::Mat depth(40, 40, CV_16U, cv::Scalar(0));
+  depth.at<std::uint16_t>(20, 10) = 2500;  // 2.5 m at 1000 per metre
+  depthFromImage(depth, 1000.0, 40.0, &f);
+  EXPECT_NEAR(f.depth[0], 2.5, 1e-6);
+  EXPECT_NEAR(f.u_right[0], 10.2 - 40.0 / 2.5, 1e-5);
+  EXPECT_EQ(f.depth[1], -1);  // no depth there
+  EXPECT_EQ(f.depth[2], -1);  // outside
+}
+
+const char* kSettings = R"(%YAML:1.0
+Sensor: "stereo"
+Camera.type: "PinHole"
+Camera1.fx: 400
+Camera1.fy: 400
+Camera1.cx: 319.5
+Camera1.cy: 239.5
+Camera.width: 640
+Camera.height: 480
+Camera.fps: 30
+Stereo.b: 0.12
+Camera.T_b_c: !!opencv-matrix
+   rows: 4
+   cols: 4
+   dt: d
+   data: [0, 0, 1, 0.25, -1, 0, 0, 0, 0, -1, 0, 0.4, 0, 0, 0, 1]
+Estimator.Features: 800
+Reliability.Ph: 0.8
+)";
+
+TEST(Options, FromSettings) {
+  const rvwo::Settings s = rvwo::Settings::fromString(kSettings, "s.yaml");
+  const Rig rig = readRig(s);
+  EXPECT_EQ(rig.sensor, Sensor::kStereo);
+  EXPECT_DOUBLE_EQ(rig.bf(), 48.0);
+  EXPECT_DOUBLE_EQ(rig.T_b_c.translation().z(), 0.4);
+  EXPECT_DOUBLE_EQ(rig.T_b_c.linear()(1, 0), -1.0);
+  const EstimatorOptions o = readEstimatorOptions(s);
+  EXPECT_EQ(o.features, 800);
+  EXPECT_DOUBLE_EQ(o.reliability.p_h, 0.8);
+}
+
+TEST(Options, ErrorsNameTheKey) {
+  auto message = [](const std::string& yaml) {
+    try {
+      const rvwo::Settings s = rvwo::Settings::fromString(yaml, "s.yaml");
+      readRig(s);
+      readEstimatorOptions(s);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  std::string y = kSettings;
+  const std::string no_tbc = y.substr(0, y.find("Camera.T_b_c")) + "Estimator.Features: 800\n";
+  EXPECT_EQ(message(no_tbc), "s.yaml: missing key Camera.T_b_c");
+  std::string no_fx = y;
+  no_fx.replace(no_fx.find("Camera1.fx: 400\n"), 16, "");
+  EXPECT_EQ(message(no_fx), "s.yaml: missing key Camera1.fx");
+  std::string bad_rot = y;
+  bad_rot.replace(bad_rot.find("[0, 0, 1,"), 9, "[0, 0, 2,");
+  EXPECT_NE(message(bad_rot).find("Camera.T_b_c is not a rigid transform"), std::string::npos);
+  std::string bad_window = y + "Estimator.Window: 1\n";
+  EXPECT_NE(message(bad_window).find("Estimator.Window"), std::string::npos);
+}
+
+TEST(Estimator, RefusesBadFrames) {
+  const rvwo::Settings s = rvwo::Settings::fromString(kSettings, "s.yaml");
+  EstimatorOptions o = readEstimatorOptions(s);
+  o.deterministic = true;
+  Estimator e(readRig(s), o);
+  FrameInput f;
+  f.timestamp = 1.0;
+  f.image = cv::Mat(240, 320, CV_8U, cv::Scalar(0));
+  f.right = f.image;
+  try {
+    e.addFrame(f);
+    FAIL() << "a 320x240 frame was taken";
+  } catch (const std::invalid_argument& ex) {
+    EXPECT_EQ(std::string(ex.what()), "frame: camera image is 320x240, the settings say 640x480");
+  }
+  f.image = texture(3);
+  f.right = cv::Mat();
+  EXPECT_THROW(e.addFrame(f), std::invalid_argument);  // stereo without the right image
+  f.right = f.image;
+  e.addFrame(f);
+  EXPECT_THROW(e.addFrame(f), std::invalid_argument);  // same time again
+  EXPECT_THROW(e.addWheelAngles(0.5, NAN, 0.0), std::invalid_argument);
+  e.finish();
+  EXPECT_EQ(e.trajectory().size(), 1u);
+}
+
+}  // namespace
