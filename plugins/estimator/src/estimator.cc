@@ -1003,6 +1003,10 @@ struct Estimator::Impl {
 Estimator::Estimator(const Rig& rig, const EstimatorOptions& options, std::shared_ptr<Segmenter> segmenter) {
   options.validate();
   if (!rig.camera) throw std::invalid_argument("estimator: the rig has no camera");
+  // Mono needs points triangulated between keyframes (with the wheels' baseline for scale): not
+  // built yet. Refused rather than run on wheels alone while looking like visual odometry.
+  if (rig.sensor == Sensor::kMono && options.mode != Mode::kWheel)
+    throw std::invalid_argument("estimator: a mono camera is not supported yet (stereo or RGB-D; --mode wheel runs)");
   if (rig.sensor != Sensor::kMono && rig.camera->kind() != CameraModel::Kind::kPinhole)
     throw std::invalid_argument("estimator: stereo and RGB-D need a rectified pinhole camera");
   if (!(rig.baseline > 0)) throw std::invalid_argument("estimator: Stereo.b must be > 0");
