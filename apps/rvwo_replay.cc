@@ -60,7 +60,7 @@ class RawlogLabels final : public rvwo::Segmenter {
   void add(double t, cv::Mat labels) {
     std::lock_guard<std::mutex> lock(mutex_);
     labels_[t] = std::move(labels);
-    while (labels_.size() > 600) labels_.erase(labels_.begin());  // 20 s at 30 Hz: bounded memory
+    while (labels_.size() > 90) labels_.erase(labels_.begin());  // 3 s at 30 Hz: a keyframe asks at once
   }
   bool any() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -451,8 +451,10 @@ int main(int argc, char** argv) {
     const double seq_s = last_t - first_t;
     std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog_arg.getValue().c_str(), mode.c_str(),
                 kernel.c_str(), seg_name.c_str());
-    std::printf("  frames %zu over %.1f s, keyframes %zu, map points made %zu, segmented keyframes %zu\n", rep.frames,
-                seq_s, rep.keyframes, rep.map_points_created, rep.segmented_keyframes);
+    std::printf(
+        "  frames %zu over %.1f s, keyframes %zu, map points made %zu (rejected by the kernel: %zu), segmented "
+        "keyframes %zu\n",
+        rep.frames, seq_s, rep.keyframes, rep.map_points_created, rep.map_points_rejected, rep.segmented_keyframes);
     std::printf("  frames on wheels only: %zu", rep.wheel_only_frames);
     for (std::size_t i = 0; i < rep.wheel_only_intervals.size() && i < 8; ++i) {
       std::printf("%s%.2f-%.2f s", i ? ", " : " (", rep.wheel_only_intervals[i].first - first_t,
@@ -460,6 +462,8 @@ int main(int argc, char** argv) {
     }
     if (rep.wheel_only_intervals.size() > 8) std::printf(", ... %zu stretches", rep.wheel_only_intervals.size());
     std::printf("%s\n", rep.wheel_only_intervals.empty() ? "" : ")");
+    if (opt.mode == rvwo::estimator::Mode::kVw)
+      std::printf("  frames where vision overruled the wheels (a slip): %zu\n", rep.slip_frames);
     if (skipped > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped);
     std::printf("  speed: %.1f s of data in %.1f s: %.2fx real time, %.1f frames/s; peak memory %.0f MB\n", seq_s, wall,
                 seq_s / wall, rep.frames / wall, peakMemoryMb());

@@ -40,7 +40,10 @@ struct KeyFrame {
   Eigen::Vector3d x = Eigen::Vector3d::Zero();  // T_w_b as (x, y, theta)
   Features f;
   std::vector<std::int64_t> point;  // per feature: map point id, -1 none
-  cv::Mat image;                    // kept until segmented
+  // Landmarks matched here but rejected by the pose's chi2 gate: not observations for the
+  // bundle adjustment, but the keyframe's labels still speak of them (feature, point).
+  std::vector<std::pair<int, std::uint64_t>> label_only;
+  cv::Mat image;  // kept until segmented
   bool segmented = false;
   int tracked = 0;  // points tracked when it was made
 };
@@ -160,6 +163,17 @@ struct Estimator::Impl {
   std::size_t last_frame_index = 0;
   int frames_since_kf = 0;
   bool has_last = false, last_visual = true;
+  std::size_t slip_frames = 0;  // frames where vision overruled the wheels
+  std::mutex slip_mutex;
+  std::deque<double> slip_times;  // of those frames, since the oldest keyframe in memory
+
+  bool slipBetween(double t0, double t1) {
+    std::lock_guard<std::mutex> lock(slip_mutex);
+    for (double t : slip_times) {
+      if (t > t0 && t <= t1) return true;
+    }
+    return false;
+  }
   double added_t = -1e300;  // last frame added
 
   // ---- local mapping thread ----
@@ -345,12 +359,10 @@ struct Estimator::Impl {
           }
         }
         if (prior) {
-          // Huber on the wheel edge too: when the wheels slip they disagree with every visual
-          // edge at once, and a quadratic wheel term would drag the pose along with them.
           Eigen::Matrix3d Jj;
           const Eigen::Vector3d r = prior->sqrtInformation() * prior->residual(x_prev, *x, nullptr, &Jj);
           const Eigen::Matrix3d Jw = prior->sqrtInformation() * Jj;
-          const double w = std::min(1.0, std::sqrt(kChi2Stereo) / std::max(r.norm(), 1e-12));
+          const double w = 1.0;
           H += w * Jw.transpose() * Jw;
           g += w * Jw.transpose() * r;
         }
@@ -476,6 +488,27 @@ struct Estimator::Impl {
     int inliers = 0;
     if (!matches.empty()) {
       inliers = optimisePose(f, matches, prior, last_pose.vector(), &x, &inlier, &errors);
+      // Slip check: the wheels' motion against vision alone. When the wheels spin in place (or
+      // skid) every static landmark disagrees with them, so vision alone, started where the robot
+      // was, explains clearly more landmarks: it wins and the wheel edge is dropped for this
+      // frame. Among walkers the wheels side with the static landmarks and keep the pose.
+      if (prior) {
+        Eigen::Vector3d x_vision = last_pose.vector();
+        std::vector<char> inlier_v;
+        std::vector<double> errors_v;
+        const int inliers_v =
+            optimisePose(f, matches, std::nullopt, last_pose.vector(), &x_vision, &inlier_v, &errors_v);
+        // ... by most of the matches, not just by a walker's.
+        if (inliers_v > 1.3 * inliers + 10 && inliers_v >= 0.6 * static_cast<double>(matches.size())) {
+          x = x_vision;
+          inliers = inliers_v;
+          inlier.swap(inlier_v);
+          errors.swap(errors_v);
+          ++slip_frames;
+          std::lock_guard<std::mutex> slock(slip_mutex);
+          slip_times.push_back(t);
+        }
+      }
     }
     timings.add("pose", msSince(t3));
     const bool visual = inliers >= opt.min_inliers;
@@ -517,7 +550,12 @@ struct Estimator::Impl {
     }
     if (make_kf) {
       auto t4 = Clock::now();
+      std::vector<std::pair<int, std::uint64_t>> label_only;
+      for (std::size_t k = 0; visual && k < matches.size(); ++k) {
+        if (!inlier[k]) label_only.emplace_back(matches[k].feature, matches[k].point);
+      }
       createKeyFrame(t, T_w_b.vector(), std::move(f), point_of, grey, inliers);
+      keyframes.at(next_kf - 1).label_only = std::move(label_only);
       record.ref_kf = next_kf - 1;
       record.T_kf_b = SE2();
       timings.add("keyframe", msSince(t4));
@@ -705,6 +743,13 @@ struct Estimator::Impl {
         if (label < 0) continue;
         reliability.observe(static_cast<std::uint64_t>(kf.point[i]), opt.priors.prior(label), std::nullopt);
       }
+      // A walker's landmarks fail the gate as soon as it moves: its label must still reach them
+      // (eqs. 4, 5), or they would keep alpha near 1 until culled and come back to hurt.
+      for (const auto& [feature, point] : kf.label_only) {
+        const int label = lookup.labelAt(kf.f.keypoints[feature].pt);
+        if (label >= 0 && points.count(point)) reliability.observe(point, opt.priors.prior(label), std::nullopt);
+      }
+      kf.label_only.clear();
     }
   }
 
@@ -729,6 +774,7 @@ struct Estimator::Impl {
       const bool rarely_found = p.visible >= 8 && p.found < 0.25 * p.visible;
       const bool lonely = newest >= p.first_kf + 3 && p.obs.size() <= 1 && rig.sensor == Sensor::kMono;
       if (rarely_found || lonely || p.obs.empty()) {
+        if (reliability.alpha(it->first) == -BarronKernel::kInfinity) ++counters.map_points_rejected;
         eraseObservations(p);
         reliability.forget(it->first);
         it = points.erase(it);
@@ -858,9 +904,15 @@ struct Estimator::Impl {
         const std::optional<WheelDelta> d = wheelDeltaLocked(kf_t[a], kf_t[b]);
         if (!d) continue;
         try {
-          // Huber: a wheel edge across a slip must not outweigh the visual edges (see optimisePose).
+          // Across a slip that tracking caught, the wheel edge gets a Huber kernel (it measured
+          // motion that did not happen); elsewhere it stays quadratic: among walkers it is what
+          // holds the window to the static world (Huber on every wheel edge doubled Huber's error
+          // in the dynamic scenario). Dropping it instead was worse: walkers that fill the view
+          // look like a slip to the check in processFrame, and the window then followed them.
+          const bool slipped = slipBetween(kf_t[a], kf_t[b]);
           problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(*d)),
-                                   new ceres::HuberLoss(std::sqrt(kChi2Stereo)), x[a].data(), x[b].data());
+                                   slipped ? new ceres::HuberLoss(std::sqrt(kChi2Stereo)) : nullptr, x[a].data(),
+                                   x[b].data());
         } catch (const std::invalid_argument&) {
         }
       }
@@ -974,6 +1026,10 @@ struct Estimator::Impl {
         }
       }
       keyframes.erase(it);
+    }
+    if (!keyframes.empty()) {
+      std::lock_guard<std::mutex> slock(slip_mutex);
+      while (!slip_times.empty() && slip_times.front() < keyframes.begin()->second.t) slip_times.pop_front();
     }
     if (!keyframes.empty()) {
       std::lock_guard<std::mutex> olock(odometry_mutex);
@@ -1095,6 +1151,7 @@ Report Estimator::report() const {
   Report r = impl_->counters;
   r.frames = impl_->frames.size();
   r.keyframes = impl_->next_kf;
+  r.slip_frames = impl_->slip_frames;
   r.timings = impl_->timings.stats();
   return r;
 }

@@ -54,8 +54,9 @@ struct TimingStats {  // ms
 struct Report {
   std::size_t frames = 0, keyframes = 0, wheel_only_frames = 0;
   std::vector<std::pair<double, double>> wheel_only_intervals;  // [t0, t1] s, frames on wheels only
-  std::size_t map_points_created = 0, map_points_rejected = 0;  // rejected: alpha = -inf at their last use
-  std::size_t segmented_keyframes = 0, skipped_odometry = 0, skipped_frames = 0;
+  std::size_t map_points_created = 0, map_points_rejected = 0;  // rejected: alpha = -inf when they left the map
+  std::size_t segmented_keyframes = 0;
+  std::size_t slip_frames = 0;  // frames where vision alone explained clearly more than vision with the wheels
   std::vector<std::pair<std::string, TimingStats>> timings;  // per stage
 };
 
