@@ -511,7 +511,9 @@ struct Estimator::Impl {
       }
     }
     timings.add("pose", msSince(t3));
-    const bool visual = inliers >= opt.min_inliers;
+    // Coming back from the wheels, vision must be convincingly back (the first frames after a
+    // blackout carry few, poorly placed matches: one such frame put the pose 6 cm off).
+    const bool visual = inliers >= (last_visual ? 1 : 3) * opt.min_inliers;
     const SE2 T_w_b = visual ? SE2::fromVector(x) : predicted;
     std::vector<std::int64_t> point_of(f.size(), -1);
     if (visual) {
@@ -526,6 +528,7 @@ struct Estimator::Impl {
     if (visual && opt.kernel == KernelChoice::kAdaptive) {
       for (std::size_t k = 0; k < matches.size(); ++k) reliability.observe(matches[k].point, std::nullopt, errors[k]);
     }
+    if (visual && !last_visual && has_last) spreadCorrection(T_w_b * predicted.inverse(), t);
     ++frames_since_kf;
     const std::uint64_t ref = std::prev(keyframes.end())->first;
     const KeyFrame& ref_kf = keyframes.at(ref);
@@ -568,6 +571,25 @@ struct Estimator::Impl {
     if (make_kf) queueKeyFrame(next_kf - 1);
     last_visual = visual;
     finishFrame(record, t);
+  }
+
+  // Vision is back after a stretch on the wheels: the map says the pose is C T_wheels (C in the
+  // world frame, the wheels' drift while blind). Applied to this frame alone it would be a jump;
+  // the frames of the stretch take the fraction s of it (s from 0 at the last visual frame to 1
+  // now, along exp(s log C)), so that the trajectory written bends instead of jumping. (Map lock
+  // held.)
+  void spreadCorrection(const SE2& C, double t) {
+    std::size_t first = frames.size();
+    while (first > 0 && !frames[first - 1].visual) --first;
+    if (first == frames.size() || first == 0) return;
+    const double t0 = frames[first - 1].t;
+    const Eigen::Vector3d xi = C.log();
+    for (std::size_t j = first; j < frames.size(); ++j) {
+      FrameRecord& r = frames[j];
+      const double s = (r.t - t0) / (t - t0);
+      const SE2 T_w_kf = kfPose(r.ref_kf);
+      r.T_kf_b = T_w_kf.inverse() * (SE2::exp(s * xi) * (T_w_kf * r.T_kf_b));
+    }
   }
 
   static cv::Mat toGrey(const cv::Mat& image) {
