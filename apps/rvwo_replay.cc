@@ -143,7 +143,6 @@ class Prefetcher {
     std::lock_guard<std::mutex> lock(mutex_);
     return error_;
   }
-  std::size_t records() const { return records_; }
 
  private:
   void push(Event e) {
@@ -161,7 +160,6 @@ class Prefetcher {
         }
         auto o = reader_.next();
         if (!o) break;
-        records_ = reader_.count();
         const auto& obs = *o;
         const double t = mrpt::Clock::toDouble(obs->timestamp);
         const std::string where = "record " + std::to_string(reader_.count() - 1) + " (t = " + std::to_string(t) + ")";
@@ -224,7 +222,6 @@ class Prefetcher {
   std::deque<Event> queue_;
   bool stop_ = false, done_ = false;
   std::string error_;
-  std::atomic<std::size_t> records_{0};
 };
 
 double peakMemoryMb() {
@@ -238,12 +235,7 @@ double peakMemoryMb() {
 
 rvwo::apps::Trajectory toTrajectory(const std::vector<rvwo::estimator::PoseEstimate>& poses) {
   rvwo::apps::Trajectory out;
-  for (const auto& p : poses) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::AngleAxisd(p.T_w_b.angle(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    T.translation() << p.T_w_b.translation(), 0.0;
-    out.push_back({p.timestamp, T});
-  }
+  for (const auto& p : poses) out.push_back({p.timestamp, p.T_w_b.isometry3()});
   return out;
 }
 

@@ -102,6 +102,20 @@ TEST(SE2, ExpLogRoundTripAndGroupLaws) {
   EXPECT_NEAR(s.translation().y(), 0.5e-9, 1e-24);
 }
 
+TEST(SE2, Isometry3OnTheFloorActsAsThePlanarPose) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-3, 3);
+  for (int i = 0; i < 100; ++i) {
+    const SE2 T(u(rng), u(rng), randomAngle(rng, i)), U(u(rng), u(rng), randomAngle(rng, i + 1));
+    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    const Eigen::Vector3d q = T.isometry3() * p;
+    EXPECT_NEAR((q.head<2>() - T.act(p.head<2>())).norm(), 0.0, 1e-12);
+    EXPECT_EQ(q.z(), p.z());  // the height is untouched
+    // A group homomorphism: the lift of a product is the product of the lifts.
+    EXPECT_NEAR(((T * U).isometry3().matrix() - (T.isometry3() * U.isometry3()).matrix()).norm(), 0.0, 1e-12);
+  }
+}
+
 TEST(Camera, ProjectionJacobiansAndUnprojection) {
   const PinholeCamera pin(500, 505, 320, 240);
   // OpenLORIS-like T265 fisheye coefficients.

@@ -139,6 +139,7 @@ struct Estimator::Impl {
   Se2XyzEdge<2> mono_edge;
   ReliabilityManager reliability;
   WheelOdometry odometry;
+  std::mutex odometry_mutex;  // the wheel buffer is written by tracking, read by mapping
   bool has_odometry = false;
   std::shared_ptr<Segmenter> segmenter;
   std::unique_ptr<AsyncSegmenter> async;
@@ -160,7 +161,6 @@ struct Estimator::Impl {
   double last_t = -1;  // of the last processed frame
   SE2 last_pose;       // its T_w_b (absolute, refreshed from its reference keyframe)
   SE2 velocity;        // T_{k-1}_{k}: constant-velocity model without wheels
-  std::size_t last_frame_index = 0;
   int frames_since_kf = 0;
   bool has_last = false, last_visual = true;
   std::size_t slip_frames = 0;  // frames where vision overruled the wheels
@@ -180,7 +180,9 @@ struct Estimator::Impl {
   std::thread mapper;
   std::mutex queue_mutex;
   std::condition_variable queue_cv, idle_cv;
-  std::deque<std::uint64_t> queue;
+  // A keyframe waits for mapping. Only the newest is worth a local BA (the ones before it are in
+  // its window), so a flag is the whole queue.
+  bool pending_keyframe = false;
   bool stop = false, busy = false;
 
   Impl(const Rig& r, const EstimatorOptions& o, std::shared_ptr<Segmenter> seg)
@@ -228,16 +230,77 @@ struct Estimator::Impl {
     return 1.0;
   }
 
-  // IRLS weight rho'(s) of a residual with squared whitened norm s, scale c (= sqrt of the gate,
-  // so that Huber and Barron with alpha = 1 bend at the same place).
-  double weight(double s, double alpha, double c) const {
+  // A landmark the adaptive (or a fixed alpha = -inf) kernel rejects: its edges leave the problem.
+  bool rejected(double alpha) const { return opt.kernel != KernelChoice::kHuber && alpha == -BarronKernel::kInfinity; }
+
+  // ORB-SLAM's chi2 gate of an observation: 3 DoF with a stereo (or depth) coordinate, else 2.
+  static double gate(bool stereo) { return stereo ? kChi2Stereo : kChi2Mono; }
+
+  // The Barron kernel of a landmark's edges: scale c = barron_scale times the gate's root (Huber's
+  // delta is the root itself, so that at alpha = 1 they bend at nearly the same place).
+  BarronKernel barron(double alpha, bool stereo) const {
+    return BarronKernel(alpha, std::sqrt(gate(stereo)) * opt.barron_scale);
+  }
+
+  // IRLS weight rho'(s) of a residual with squared whitened norm s: Huber at the gate's root, or
+  // the landmark's Barron kernel.
+  double weight(double s, const BarronKernel& kernel, bool stereo) const {
     if (opt.kernel == KernelChoice::kHuber) {
-      const double r = std::sqrt(s);
+      const double c = std::sqrt(gate(stereo)), r = std::sqrt(s);
       return r <= c ? 1.0 : c / r;
     }
     double rho[3];
-    BarronKernel(alpha, c * opt.barron_scale).evaluate(s, rho);
+    kernel.evaluate(s, rho);
     return rho[1];
+  }
+
+  // The SE(2)-XYZ edge of an observation (u, v, u_R) (N = 3) or (u, v) (N = 2), and the
+  // square-root information of its covariance at x (eq. 10: out-of-plane inflation).
+  template <int N>
+  const Se2XyzEdge<N>& edge() const {
+    if constexpr (N == 3) {
+      return stereo_edge;
+    } else {
+      return mono_edge;
+    }
+  }
+  template <int N>
+  Eigen::Matrix<double, N, N> sqrtInformation(const Eigen::Vector3d& x, const Eigen::Vector3d& P, double sigma) const {
+    return ceres_adapters::Se2XyzCost<N>::sqrtInformation(edge<N>(), x, P, sigma, opt.out_of_plane);
+  }
+  // Whitened chi2 of observation z = (u, v, u_R) at x (u_R unused when N = 2), with the
+  // information at x; false when the point does not project.
+  template <int N>
+  bool chi2(const Eigen::Vector3d& x, const Eigen::Vector3d& P, const Eigen::Vector3d& z, double sigma,
+            double* out) const {
+    Eigen::Matrix<double, N, 1> r;
+    if (!edge<N>().residual(x, P, z.head<N>(), &r)) return false;
+    *out = (sqrtInformation<N>(x, P, sigma) * r).squaredNorm();
+    return true;
+  }
+  bool chi2(bool stereo, const Eigen::Vector3d& x, const Eigen::Vector3d& P, const Eigen::Vector3d& z, double sigma,
+            double* out) const {
+    return stereo ? chi2<3>(x, P, z, sigma, out) : chi2<2>(x, P, z, sigma, out);
+  }
+  // One Gauss-Newton term (w J^T J, w J^T r) of the whitened edge; false when it does not project.
+  template <int N>
+  bool accumulate(const Eigen::Vector3d& x, const Eigen::Vector3d& P, const Eigen::Vector3d& z,
+                  const Eigen::Matrix<double, N, N>& S, const BarronKernel& kernel, Eigen::Matrix3d* H,
+                  Eigen::Vector3d* g) const {
+    Eigen::Matrix<double, N, 1> r;
+    Eigen::Matrix<double, N, 3> J;
+    if (!edge<N>().residual(x, P, z.head<N>(), &r, &J)) return false;
+    const Eigen::Matrix<double, N, 1> rw = S * r;
+    const Eigen::Matrix<double, N, 3> Jw = S * J;
+    const double w = weight(rw.squaredNorm(), kernel, N == 3);
+    *H += w * Jw.transpose() * Jw;
+    *g += w * Jw.transpose() * rw;
+    return true;
+  }
+  // Observation (u, v, u_R) of a frame's feature (u_R = -1 without stereo or depth).
+  static Eigen::Vector3d observation(const Features& f, int i) {
+    const cv::KeyPoint& kp = f.keypoints[i];
+    return Eigen::Vector3d(kp.pt.x, kp.pt.y, f.u_right[i]);
   }
 
   bool hasStereo(const Features& f, int i) const { return rig.sensor != Sensor::kMono && f.u_right[i] >= 0; }
@@ -253,13 +316,7 @@ struct Estimator::Impl {
     std::vector<Match> matches;
     std::vector<int> best_dist(f.size(), 256);
     std::vector<std::int64_t> best_point(f.size(), -1);
-    const Eigen::Isometry3d T_c_w = [&] {
-      const SE2 T = SE2::fromVector(x);
-      Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
-      T_w_b.linear().topLeftCorner<2, 2>() = T.rotation();
-      T_w_b.translation().head<2>() = T.translation();
-      return (T_w_b * rig.T_b_c).inverse();
-    }();
+    const Eigen::Isometry3d T_c_w = (SE2::fromVector(x).isometry3() * rig.T_b_c).inverse();
     for (auto& [id, p] : points) {
       const Eigen::Vector3d P_c = T_c_w * p.P;
       const double d = P_c.norm();
@@ -270,22 +327,15 @@ struct Estimator::Impl {
       ++p.visible;
       const int level = predictLevel(p, d);
       const float r = static_cast<float>(opt.search_radius * radius_scale * std::pow(opt.scale_factor, level));
-      int best = 256, second = 256, best_i = -1;
+      BestTwo match;
       for (int i : f.near(static_cast<float>(h.x()), static_cast<float>(h.y()), r, level - 1, level + 1)) {
         if (rig.sensor != Sensor::kMono && f.u_right[i] >= 0 && std::fabs(f.u_right[i] - h.z()) > r) continue;
-        const int dist = hammingDistance(p.descriptor, f.descriptors.row(i));
-        if (dist < best) {
-          second = best;
-          best = dist;
-          best_i = i;
-        } else if (dist < second) {
-          second = dist;
-        }
+        match.offer(hammingDistance(p.descriptor, f.descriptors.row(i)), i);
       }
-      if (best_i < 0 || best > 50 || best > 0.9 * second) continue;
-      if (best < best_dist[best_i]) {
-        best_dist[best_i] = best;
-        best_point[best_i] = static_cast<std::int64_t>(id);
+      if (match.index < 0 || match.best > 50 || match.best > 0.9 * match.second) continue;
+      if (match.best < best_dist[match.index]) {
+        best_dist[match.index] = match.best;
+        best_point[match.index] = static_cast<std::int64_t>(id);
       }
     }
     for (std::size_t i = 0; i < f.size(); ++i) {
@@ -303,12 +353,16 @@ struct Estimator::Impl {
     const std::size_t n = matches.size();
     inlier->assign(n, 1);
     errors->assign(n, 0.0);
-    std::vector<double> alpha(n), sigma(n);
-    std::vector<char> usable(n, 1);
+    std::vector<double> sigma(n);
+    std::vector<char> usable(n, 1), stereo(n);
+    std::vector<BarronKernel> kernel;  // per match, made once (its constants depend on alpha alone)
+    kernel.reserve(n);
     for (std::size_t k = 0; k < n; ++k) {
-      alpha[k] = kernelAlpha(matches[k].point);
-      if (opt.kernel != KernelChoice::kHuber && alpha[k] == -BarronKernel::kInfinity) usable[k] = 0;  // rejected
+      const double alpha = kernelAlpha(matches[k].point);
+      usable[k] = !rejected(alpha);
+      stereo[k] = hasStereo(f, matches[k].feature);
       sigma[k] = opt.sigma_px * std::pow(opt.scale_factor, f.keypoints[matches[k].feature].octave);
+      kernel.push_back(barron(alpha, stereo[k]));
     }
     int inliers = 0;
     for (int round = 0; round < 4; ++round) {
@@ -318,10 +372,10 @@ struct Estimator::Impl {
       for (std::size_t k = 0; k < n; ++k) {
         if (!usable[k]) continue;
         const Eigen::Vector3d& P = points.at(matches[k].point).P;
-        if (hasStereo(f, matches[k].feature)) {
-          S3[k] = ceres_adapters::Se2XyzCost<3>::sqrtInformation(stereo_edge, *x, P, sigma[k], opt.out_of_plane);
+        if (stereo[k]) {
+          S3[k] = sqrtInformation<3>(*x, P, sigma[k]);
         } else {
-          S2[k] = ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono_edge, *x, P, sigma[k], opt.out_of_plane);
+          S2[k] = sqrtInformation<2>(*x, P, sigma[k]);
         }
       }
       for (int it = 0; it < 10; ++it) {
@@ -329,42 +383,18 @@ struct Estimator::Impl {
         Eigen::Vector3d g = Eigen::Vector3d::Zero();
         for (std::size_t k = 0; k < n; ++k) {
           if (!usable[k] || !(*inlier)[k]) continue;
-          const Match& m = matches[k];
-          const Eigen::Vector3d& P = points.at(m.point).P;
-          const cv::KeyPoint& kp = f.keypoints[m.feature];
-          if (hasStereo(f, m.feature)) {
-            Eigen::Vector3d r;
-            Eigen::Matrix3d J;
-            if (!stereo_edge.residual(*x, P, Eigen::Vector3d(kp.pt.x, kp.pt.y, f.u_right[m.feature]), &r, &J)) {
-              (*inlier)[k] = 0;
-              continue;
-            }
-            const Eigen::Vector3d rw = S3[k] * r;
-            const Eigen::Matrix3d Jw = S3[k] * J;
-            const double w = weight(rw.squaredNorm(), alpha[k], std::sqrt(kChi2Stereo));
-            H += w * Jw.transpose() * Jw;
-            g += w * Jw.transpose() * rw;
-          } else {
-            Eigen::Vector2d r;
-            Eigen::Matrix<double, 2, 3> J;
-            if (!mono_edge.residual(*x, P, Eigen::Vector2d(kp.pt.x, kp.pt.y), &r, &J)) {
-              (*inlier)[k] = 0;
-              continue;
-            }
-            const Eigen::Vector2d rw = S2[k] * r;
-            const Eigen::Matrix<double, 2, 3> Jw = S2[k] * J;
-            const double w = weight(rw.squaredNorm(), alpha[k], std::sqrt(kChi2Mono));
-            H += w * Jw.transpose() * Jw;
-            g += w * Jw.transpose() * rw;
-          }
+          const Eigen::Vector3d& P = points.at(matches[k].point).P;
+          const Eigen::Vector3d z = observation(f, matches[k].feature);
+          const bool ok = stereo[k] ? accumulate<3>(*x, P, z, S3[k], kernel[k], &H, &g)
+                                    : accumulate<2>(*x, P, z, S2[k], kernel[k], &H, &g);
+          if (!ok) (*inlier)[k] = 0;
         }
         if (prior) {
           Eigen::Matrix3d Jj;
           const Eigen::Vector3d r = prior->sqrtInformation() * prior->residual(x_prev, *x, nullptr, &Jj);
           const Eigen::Matrix3d Jw = prior->sqrtInformation() * Jj;
-          const double w = 1.0;
-          H += w * Jw.transpose() * Jw;
-          g += w * Jw.transpose() * r;
+          H += Jw.transpose() * Jw;
+          g += Jw.transpose() * r;
         }
         H.diagonal().array() += 1e-9;
         const Eigen::Vector3d dx = -H.ldlt().solve(g);
@@ -376,31 +406,20 @@ struct Estimator::Impl {
       // Classify against the gate (every match, so that a rejected one may come back).
       inliers = 0;
       for (std::size_t k = 0; k < n; ++k) {
-        const Match& m = matches[k];
-        const Eigen::Vector3d& P = points.at(m.point).P;
-        const cv::KeyPoint& kp = f.keypoints[m.feature];
-        double chi2 = 1e9, gate = kChi2Mono;
-        if (hasStereo(f, m.feature)) {
-          Eigen::Vector3d r;
-          gate = kChi2Stereo;
-          if (stereo_edge.residual(*x, P, Eigen::Vector3d(kp.pt.x, kp.pt.y, f.u_right[m.feature]), &r))
-            chi2 = (ceres_adapters::Se2XyzCost<3>::sqrtInformation(stereo_edge, *x, P, sigma[k], opt.out_of_plane) * r)
-                       .squaredNorm();
-        } else {
-          Eigen::Vector2d r;
-          if (mono_edge.residual(*x, P, Eigen::Vector2d(kp.pt.x, kp.pt.y), &r))
-            chi2 = (ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono_edge, *x, P, sigma[k], opt.out_of_plane) * r)
-                       .squaredNorm();
-        }
-        (*errors)[k] = std::sqrt(chi2);
-        (*inlier)[k] = usable[k] && chi2 <= gate;
+        double e2 = 1e9;
+        chi2(stereo[k], *x, points.at(matches[k].point).P, observation(f, matches[k].feature), sigma[k], &e2);
+        (*errors)[k] = std::sqrt(e2);
+        (*inlier)[k] = usable[k] && e2 <= gate(stereo[k]);
         inliers += (*inlier)[k];
       }
     }
     return inliers;
   }
 
-  std::optional<WheelDelta> wheelDelta(double t0, double t1) const {
+  // The wheels' motion between t0 and t1, clipped to the readings there are; none in vo mode or
+  // without odometry. (Tracking writes the wheel buffer, mapping reads it: under its lock.)
+  std::optional<WheelDelta> wheelDelta(double t0, double t1) {
+    std::lock_guard<std::mutex> lock(odometry_mutex);
     if (!has_odometry || opt.mode == Mode::kVo || odometry.empty()) return std::nullopt;
     t0 = std::max(t0, odometry.firstTime());
     t1 = std::min(t1, odometry.lastTime());
@@ -419,7 +438,7 @@ struct Estimator::Impl {
       last_pose = kfPose(prev.ref_kf) * prev.T_kf_b;
     }
     if (has_last) {
-      delta = wheelDeltaLocked(last_t, t);
+      delta = wheelDelta(last_t, t);
       predicted = delta ? last_pose * delta->pose() : last_pose * (opt.mode == Mode::kVo ? velocity : SE2());
     }
     FrameRecord record{t, 0, SE2(), false};
@@ -462,7 +481,7 @@ struct Estimator::Impl {
       record.ref_kf = next_kf - 1;
       record.visual = made > 0;
       lock.unlock();
-      queueKeyFrame(next_kf - 1);
+      queueKeyFrame();
       finishFrame(record, t);
       return;
     }
@@ -568,7 +587,7 @@ struct Estimator::Impl {
     }
     record.visual = visual;
     lock.unlock();
-    if (make_kf) queueKeyFrame(next_kf - 1);
+    if (make_kf) queueKeyFrame();
     last_visual = visual;
     finishFrame(record, t);
   }
@@ -679,31 +698,28 @@ struct Estimator::Impl {
   }
 
   // ================= local mapping =================
-  void queueKeyFrame(std::uint64_t id) {
+  void queueKeyFrame() {
     if (opt.deterministic) {
-      mapKeyFrame(id);
+      mapKeyFrame();
       return;
     }
     {
       std::lock_guard<std::mutex> lock(queue_mutex);
-      queue.push_back(id);
+      pending_keyframe = true;
     }
     queue_cv.notify_one();
   }
 
   void mappingLoop() {
     for (;;) {
-      std::uint64_t id;
       {
         std::unique_lock<std::mutex> lock(queue_mutex);
-        queue_cv.wait(lock, [&] { return stop || !queue.empty(); });
-        if (queue.empty()) return;  // stop, and nothing left
-        // Only the newest keyframe is worth a local BA: the ones before it are in its window.
-        id = queue.back();
-        queue.clear();
+        queue_cv.wait(lock, [&] { return stop || pending_keyframe; });
+        if (!pending_keyframe) return;  // stop, and nothing left
+        pending_keyframe = false;
         busy = true;
       }
-      mapKeyFrame(id);
+      mapKeyFrame();
       {
         std::lock_guard<std::mutex> lock(queue_mutex);
         busy = false;
@@ -715,7 +731,7 @@ struct Estimator::Impl {
   void waitForMapper() {
     if (opt.deterministic) return;
     std::unique_lock<std::mutex> lock(queue_mutex);
-    idle_cv.wait(lock, [&] { return queue.empty() && !busy; });
+    idle_cv.wait(lock, [&] { return !pending_keyframe && !busy; });
   }
 
   // Labels of keyframes still in memory that have not had theirs: semantic observations of their
@@ -775,8 +791,7 @@ struct Estimator::Impl {
     }
   }
 
-  void mapKeyFrame(std::uint64_t id) {
-    (void)id;
+  void mapKeyFrame() {
     auto t0 = Clock::now();
     applyLabels(opt.deterministic);
     cullPoints();
@@ -856,7 +871,7 @@ struct Estimator::Impl {
           const std::uint64_t pid = static_cast<std::uint64_t>(kf.point[j]);
           if (point_index.count(pid)) continue;
           const double a = kernelAlpha(pid);
-          if (opt.kernel != KernelChoice::kHuber && a == -BarronKernel::kInfinity) continue;  // rejected
+          if (rejected(a)) continue;
           point_index[pid] = point_ids.size();
           point_ids.push_back(pid);
           P.push_back(points.at(pid).P);
@@ -880,7 +895,7 @@ struct Estimator::Impl {
           Obs o{ki->second,
                 pi,
                 feature,
-                Eigen::Vector3d(kp.pt.x, kp.pt.y, f.u_right[feature]),
+                observation(f, feature),
                 hasStereo(f, feature),
                 opt.sigma_px * std::pow(opt.scale_factor, kp.octave),
                 point_ids[pi],
@@ -895,25 +910,20 @@ struct Estimator::Impl {
     po.enable_fast_removal = true;  // outliers leave between the rounds
     ceres::Problem problem(po);
     std::vector<ceres::ResidualBlockId> blocks(obs.size(), nullptr);
-    auto loss = [&](double a, double gate) -> ceres::LossFunction* {
-      if (opt.kernel == KernelChoice::kHuber) return new ceres::HuberLoss(std::sqrt(gate));
-      return new ceres_adapters::BarronLoss(a, opt.barron_scale * std::sqrt(gate));
+    auto loss = [&](double a, bool stereo) -> ceres::LossFunction* {
+      if (opt.kernel == KernelChoice::kHuber) return new ceres::HuberLoss(std::sqrt(gate(stereo)));
+      return new ceres_adapters::BarronLoss(a, opt.barron_scale * std::sqrt(gate(stereo)));
+    };
+    auto cost = [&](const Obs& o) -> ceres::CostFunction* {
+      const Eigen::Vector3d &xk = x[o.kf], &Pk = P[o.point];
+      if (o.stereo) return new ceres_adapters::Se2XyzCost<3>(stereo_edge, o.z, sqrtInformation<3>(xk, Pk, o.sigma));
+      return new ceres_adapters::Se2XyzCost<2>(mono_edge, o.z.head<2>(), sqrtInformation<2>(xk, Pk, o.sigma));
     };
     for (std::size_t k = 0; k < obs.size(); ++k) {
       const Obs& o = obs[k];
       Eigen::Vector3d h;
       if (!stereo_edge.predict(x[o.kf], P[o.point], &h)) continue;
-      if (o.stereo) {
-        const Eigen::Matrix3d S =
-            ceres_adapters::Se2XyzCost<3>::sqrtInformation(stereo_edge, x[o.kf], P[o.point], o.sigma, opt.out_of_plane);
-        blocks[k] = problem.AddResidualBlock(new ceres_adapters::Se2XyzCost<3>(stereo_edge, o.z, S),
-                                             loss(alpha[o.point], kChi2Stereo), x[o.kf].data(), P[o.point].data());
-      } else {
-        const Eigen::Matrix2d S =
-            ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono_edge, x[o.kf], P[o.point], o.sigma, opt.out_of_plane);
-        blocks[k] = problem.AddResidualBlock(new ceres_adapters::Se2XyzCost<2>(mono_edge, o.z.head<2>(), S),
-                                             loss(alpha[o.point], kChi2Mono), x[o.kf].data(), P[o.point].data());
-      }
+      blocks[k] = problem.AddResidualBlock(cost(o), loss(alpha[o.point], o.stereo), x[o.kf].data(), P[o.point].data());
     }
     if (opt.mode == Mode::kVw) {
       // Wheel edges between consecutive keyframes of the window (and from the fixed one before it).
@@ -923,7 +933,7 @@ struct Estimator::Impl {
       for (std::size_t k = 0; k + 1 < order.size(); ++k) {
         const std::size_t a = order[k], b = order[k + 1];
         if (fixed[a] && fixed[b]) continue;
-        const std::optional<WheelDelta> d = wheelDeltaLocked(kf_t[a], kf_t[b]);
+        const std::optional<WheelDelta> d = wheelDelta(kf_t[a], kf_t[b]);
         if (!d) continue;
         try {
           // Across a slip that tracking caught, the wheel edge gets a Huber kernel (it measured
@@ -951,30 +961,13 @@ struct Estimator::Impl {
     so.max_num_iterations = 5;
     so.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
-    auto chi2Of = [&](const Obs& o, double* e) {
-      if (o.stereo) {
-        Eigen::Vector3d r;
-        if (!stereo_edge.residual(x[o.kf], P[o.point], o.z, &r)) return false;
-        *e = (ceres_adapters::Se2XyzCost<3>::sqrtInformation(stereo_edge, x[o.kf], P[o.point], o.sigma,
-                                                             opt.out_of_plane) *
-              r)
-                 .squaredNorm();
-      } else {
-        Eigen::Vector2d r;
-        if (!mono_edge.residual(x[o.kf], P[o.point], o.z.head<2>(), &r)) return false;
-        *e =
-            (ceres_adapters::Se2XyzCost<2>::sqrtInformation(mono_edge, x[o.kf], P[o.point], o.sigma, opt.out_of_plane) *
-             r)
-                .squaredNorm();
-      }
-      return true;
-    };
+    auto chi2Of = [&](const Obs& o, double* e) { return chi2(o.stereo, x[o.kf], P[o.point], o.z, o.sigma, e); };
     if (problem.NumResidualBlocks() > 0) {
       ceres::Solve(so, &problem, &summary);
       // Outliers leave the second round (ORB-SLAM's two-stage local BA).
       for (std::size_t k = 0; k < obs.size(); ++k) {
         double chi2 = 0;
-        if (blocks[k] && (!chi2Of(obs[k], &chi2) || chi2 > (obs[k].stereo ? kChi2Stereo : kChi2Mono))) {
+        if (blocks[k] && (!chi2Of(obs[k], &chi2) || chi2 > gate(obs[k].stereo))) {
           problem.RemoveResidualBlock(blocks[k]);
           blocks[k] = nullptr;
         }
@@ -1005,7 +998,7 @@ struct Estimator::Impl {
       const bool ok = chi2Of(o, &chi2);
       sum[o.point] += std::min(chi2, 1e4);
       ++count[o.point];
-      if (!ok || chi2 > (o.stereo ? kChi2Stereo : kChi2Mono)) {  // the observation goes
+      if (!ok || chi2 > gate(o.stereo)) {  // the observation goes
         auto p = points.find(o.point_id);
         if (p != points.end()) p->second.obs.erase(o.kf_id);
         auto kf = keyframes.find(o.kf_id);
@@ -1021,12 +1014,6 @@ struct Estimator::Impl {
         reliability.observe(point_ids[pi], std::nullopt, std::sqrt(sum[pi] / count[pi]));
     }
   }
-
-  std::optional<WheelDelta> wheelDeltaLocked(double t0, double t1) {
-    std::lock_guard<std::mutex> lock(odometry_mutex);
-    return wheelDelta(t0, t1);
-  }
-  std::mutex odometry_mutex;  // the wheel buffer is written by tracking, read by mapping
 
   // Keyframes beyond keep_keyframes leave memory: their poses are final, their points forgotten
   // when no keyframe in memory sees them, the wheel readings before them dropped.

@@ -126,22 +126,16 @@ void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, const Fe
   for (std::size_t i = 0; i < left->keypoints.size(); ++i) {
     const cv::KeyPoint& kl = left->keypoints[i];
     const int row = std::clamp(static_cast<int>(std::lround(kl.pt.y)), 0, rows - 1);
-    int best = kMaxDistance + 1, second = 256, best_j = -1;
+    BestTwo match{kMaxDistance + 1};
     for (int j : by_row[row]) {
       const cv::KeyPoint& kr = right.keypoints[j];
       if (std::abs(kr.octave - kl.octave) > 1) continue;
       const double d = kl.pt.x - kr.pt.x;
       if (d < min_disparity || d > max_disparity) continue;
-      const int dist = hammingDistance(left->descriptors.row(static_cast<int>(i)), right.descriptors.row(j));
-      if (dist < best) {
-        second = best;
-        best = dist;
-        best_j = j;
-      } else if (dist < second) {
-        second = dist;
-      }
+      match.offer(hammingDistance(left->descriptors.row(static_cast<int>(i)), right.descriptors.row(j)), j);
     }
-    if (best_j < 0 || best > 0.9 * second) continue;
+    if (match.index < 0 || match.best > 0.9 * match.second) continue;
+    const int best_j = match.index;
     // Sub-pixel: SAD of patches along the row, +-3 px around the match, then a parabola. The
     // patch grows with the keypoint's level (3 px half-width at level 0): a coarse corner's
     // position is only known to its level's pixel, and a small patch there may see flat grey.

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cmath>
 
 namespace rvwo {
@@ -46,6 +47,13 @@ class SE2 {
   const Eigen::Vector2d& translation() const { return t_; }
   double angle() const { return theta_; }
   Eigen::Matrix2d rotation() const { return rotation2(theta_); }
+  // The same pose in 3-D, on the plane z = 0 (rotation about z).
+  Eigen::Isometry3d isometry3() const {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear().topLeftCorner<2, 2>() = rotation();
+    T.translation().head<2>() = t_;
+    return T;
+  }
 
   // this * other. Jacobians of the result's (x, y, theta) w.r.t. each operand's (x, y, theta).
   SE2 compose(const SE2& other, Eigen::Matrix3d* J_this = nullptr, Eigen::Matrix3d* J_other = nullptr) const;

@@ -62,4 +62,19 @@ void depthFromImage(const cv::Mat& depth, double depth_factor, double bf, Featur
 
 int hammingDistance(const cv::Mat& a, const cv::Mat& b);  // 32-byte rows
 
+// The closest and the second-closest of the descriptor distances offered, for the ratio test.
+// best starts at the largest distance that may win (e.g. 61: only distances <= 60 are taken).
+struct BestTwo {
+  int best = 256, second = 256, index = -1;
+  void offer(int distance, int i) {
+    if (distance < best) {
+      second = best;
+      best = distance;
+      index = i;
+    } else if (distance < second) {
+      second = distance;
+    }
+  }
+};
+
 }  // namespace rvwo::estimator
