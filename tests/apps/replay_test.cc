@@ -11,7 +11,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "../common/temp.h"
 #include "support/rawlog.h"
@@ -22,12 +21,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using rvwo::test::slurp;
 
 // A scenario of the suite, cut to `duration` seconds, simulated into a fresh scratch folder.
 fs::path simulate(const std::string& scenario, double duration, const std::string& extra = "") {

@@ -8,7 +8,6 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgproc.hpp>
-#include <sstream>
 
 #include "../common/temp.h"
 #include "sim/odometry.h"
@@ -203,12 +202,7 @@ TEST(Simulator, ScenarioErrorsNameFileAndKey) {
   EXPECT_THROW(loadScenario("/nonexistent/scenario.yaml"), std::runtime_error);
 }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using rvwo::test::slurp;
 
 TEST(Simulator, SameSeedSameBytes) {
   const fs::path dir = rvwo::test::scratch("rvwo_sim_determinism");
