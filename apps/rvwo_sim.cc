@@ -47,7 +47,9 @@ struct Rig {
   double fx = 400, fy = 400, cx = 319.5, cy = 239.5, baseline = 0.12;
   double k[4] = {0.0, 0.0, 0.0, 0.0};  // Kannala-Brandt, fisheye only
   Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_c1_c2 = Eigen::Isometry3d::Identity();  // the right camera in the left's frame
   Rig(bool fisheye) {
+    T_c1_c2.translation().x() = baseline;
     Eigen::Matrix3d R_b_c;
     R_b_c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
     T_b_c.linear() = Eigen::AngleAxisd(5.0 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix() * R_b_c;
@@ -62,6 +64,11 @@ struct Rig {
       k[1] = 0.0463;
       k[2] = -0.0431;
       k[3] = 0.0079;
+      // Raw fisheye pairs are not rectified: the right camera is turned a little, as real ones
+      // are (rvwo-replay rectifies them).
+      T_c1_c2.linear() = (Eigen::AngleAxisd(0.4 * M_PI / 180, Eigen::Vector3d::UnitY()) *
+                          Eigen::AngleAxisd(-0.3 * M_PI / 180, Eigen::Vector3d::UnitX()))
+                             .toRotationMatrix();
     }
   }
 };
@@ -255,8 +262,7 @@ int main(int argc, char** argv) {
       save(left.image, name);
       const mrpt::Clock::time_point stamp = mrpt::Clock::fromDouble(t_frame);
       if (stereo) {
-        Eigen::Isometry3d T_c_r = Eigen::Isometry3d::Identity();
-        T_c_r.translation().x() = rig.baseline;
+        const Eigen::Isometry3d& T_c_r = rig.T_c1_c2;
         ro.noise_seed += 1;
         const rvwo::sim::Render right = scene.render(T_w_c * T_c_r, rays, t_frame, ro, robot);
         char rname[64];
@@ -269,7 +275,10 @@ int main(int argc, char** argv) {
         o.imageRight.setExternalStorage(rname);
         o.hasImageRight = true;
         o.leftCamera = o.rightCamera = tcam;
-        o.rightCameraPose = mrpt::poses::CPose3DQuat(rig.baseline, 0, 0, mrpt::math::CQuaternionDouble());
+        const Eigen::Quaterniond q_c_r(T_c_r.linear());
+        o.rightCameraPose =
+            mrpt::poses::CPose3DQuat(T_c_r.translation().x(), T_c_r.translation().y(), T_c_r.translation().z(),
+                                     mrpt::math::CQuaternionDouble(q_c_r.w(), q_c_r.x(), q_c_r.y(), q_c_r.z()));
         rawlog.write(o);
       } else if (rgbd) {
         mrpt::obs::CObservation3DRangeScan o;
@@ -346,10 +355,16 @@ int main(int argc, char** argv) {
        << "\nCamera1.cy: " << rig.cy << "\n";
     if (sc.lens == "fisheye") {
       for (int i = 0; i < 4; ++i) st << "Camera1.k" << i + 1 << ": " << rig.k[i] << "\n";
+      if (stereo) {  // ORB-SLAM3's KannalaBrandt8 stereo: the second camera and where it is
+        st << "Camera2.fx: " << rig.fx << "\nCamera2.fy: " << rig.fy << "\nCamera2.cx: " << rig.cx
+           << "\nCamera2.cy: " << rig.cy << "\n";
+        for (int i = 0; i < 4; ++i) st << "Camera2.k" << i + 1 << ": " << rig.k[i] << "\n";
+        st << "Stereo.T_c1_c2: " << matrix(rig.T_c1_c2) << "\n";
+      }
     }
     st << "Camera.width: " << rig.width << "\nCamera.height: " << rig.height << "\nCamera.fps: " << sc.fps << "\n"
        << "Sensor: \"" << sc.camera << "\"\n";
-    if (stereo) st << "Stereo.b: " << rig.baseline << "\n";
+    if (stereo && sc.lens == "pinhole") st << "Stereo.b: " << rig.baseline << "\n";
     if (rgbd) st << "RGBD.DepthMapFactor: 1000.0\n";
     st << "Camera.T_b_c: " << matrix(rig.T_b_c) << "\n"
        << "Odometry.T_b_o: " << matrix(Eigen::Isometry3d::Identity()) << "\n"

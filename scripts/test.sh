@@ -28,7 +28,7 @@ if [ "${RVWO_SANITIZERS:-1}" != 0 ]; then
   # The replay accuracy tests (minutes of simulated video) run in the plain build only; the
   # estimator's own tests and the replay's bad-input test run here.
   ctest --test-dir build-asan --output-on-failure -j2 \
-    -E 'install_consumer|clang_format|setup_failed_download|Replay\.(Static|Dynamic|Slip|Blackout)'
+    -E 'install_consumer|clang_format|setup_failed_download|Replay\.(Static|Dynamic|Slip|Blackout|Cameras)'
   stamp "ThreadSanitizer build (build-tsan/)"
   cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS=-O1 -DRVWO_SANITIZE=thread \
     -DRVWO_BUILD_BENCHMARKS=OFF -DRVWO_BUILD_APPS=OFF -DRVWO_WITH_G2O=OFF \

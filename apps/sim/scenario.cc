@@ -107,7 +107,7 @@ void validateScenario(const Scenario& s, const std::string& source) {
   check(s.duration > 0, "Sequence.Duration", "must be > 0");
   check(s.camera == "stereo" || s.camera == "rgbd" || s.camera == "mono", "Sequence.Camera", "stereo, rgbd or mono");
   check(s.lens == "pinhole" || s.lens == "fisheye", "Sequence.Lens", "pinhole or fisheye");
-  check(s.lens == "pinhole" || s.camera == "mono", "Sequence.Lens", "fisheye is simulated for mono only");
+  check(s.lens == "pinhole" || s.camera != "rgbd", "Sequence.Lens", "fisheye is simulated for mono and stereo");
   check(s.fps > 0 && s.fps <= 120, "Sequence.Fps", "must be in (0, 120]");
   check(s.pixel_noise >= 0 && s.pixel_noise <= 50, "Sequence.PixelNoise", "must be in [0, 50] grey levels");
   check(s.motion == "loop" || s.motion == "file", "Sequence.Motion", "loop or file");

@@ -221,7 +221,7 @@ TEST(Simulator, ScenarioErrorsNameFileAndKey) {
   expectError("Events.Bumps: [1.0, 2.0]\n", "Events.Bumps: expected groups of 3");
   expectError("Sequence.Motion: \"file\"\n", "Sequence.MotionFile: needed");
   Scenario fisheye = scenarioFrom("Sequence.Camera: \"mono\"\nSequence.Lens: \"fisheye\"\n", "fisheye");
-  fisheye.camera = "stereo";  // as rvwo-sim --camera stereo would
+  fisheye.camera = "rgbd";  // as rvwo-sim --camera rgbd would (fisheye is mono and stereo only)
   EXPECT_THROW(validateScenario(fisheye, "overrides"), std::runtime_error);
   EXPECT_THROW(loadScenario("/nonexistent/scenario.yaml"), std::runtime_error);
 }

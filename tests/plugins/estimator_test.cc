@@ -143,6 +143,54 @@ TEST(Options, ErrorsNameTheKey) {
   EXPECT_NE(message(bad_window).find("Estimator.Window"), std::string::npos);
 }
 
+// Fisheye stereo (ORB-SLAM3's KannalaBrandt8 pair, the right camera turned a little): the
+// rectified pinhole rig and the remap tables agree with the raw cameras. A point seen by both raw
+// cameras lands, in the rectified pair, on one row with the disparity bf / z, and the tables send
+// those rectified pixels back to the raw pixels the fisheyes saw.
+TEST(Options, FisheyeStereoIsRectifiedOnInput) {
+  const double k1 = -0.0105, k2 = 0.0463, k3 = -0.0431, k4 = 0.0079;
+  const rvwo::KannalaBrandtCamera left(286, 286, 423.5, 399.5, k1, k2, k3, k4),
+      right(290, 288, 420.0, 401.0, k1, k2, k3, k4);
+  Eigen::Isometry3d T_c1_c2 = Eigen::Isometry3d::Identity();
+  T_c1_c2.translation() << 0.064, 0.001, -0.002;
+  T_c1_c2.linear() = (Eigen::AngleAxisd(0.4 * M_PI / 180, Eigen::Vector3d::UnitY()) *
+                      Eigen::AngleAxisd(-0.3 * M_PI / 180, Eigen::Vector3d::UnitX()))
+                         .toRotationMatrix();
+  Rig rig;
+  rig.width = 848;
+  rig.height = 800;
+  rig.T_b_c.translation() << 0.25, 0, 0.4;
+  rectifyFisheyeStereo(left, right, T_c1_c2, &rig);
+  ASSERT_TRUE(rig.rectification);
+  ASSERT_EQ(rig.camera->kind(), rvwo::CameraModel::Kind::kPinhole);
+  EXPECT_NEAR(rig.baseline, T_c1_c2.translation().norm(), 1e-9);
+  EXPECT_NEAR(rig.T_b_c.translation().x(), 0.25, 1e-12);  // rectification turns the camera, never moves it
+  const Eigen::Isometry3d T_c1_rect = Eigen::Isometry3d(Eigen::Translation3d(-0.25, 0, -0.4)) * rig.T_b_c;
+  // Rectified pixels on the grid (integer columns and disparities), so that the tables are read
+  // where they were computed, without interpolation.
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> col(0, 847), row(0, 799), disparity(2, 40);
+  const StereoRectification& table = *rig.rectification;
+  int checked = 0;
+  for (int i = 0; i < 300; ++i) {
+    const int u = col(rng), v = row(rng), d = disparity(rng);
+    if (u - d < 0) continue;
+    const double z = rig.bf() / d;  // in the rectified left camera
+    const Eigen::Vector3d P_rect(z * (u - rig.camera->cx()) / rig.camera->fx(),
+                                 z * (v - rig.camera->cy()) / rig.camera->fy(), z);
+    const Eigen::Vector3d P_c1 = T_c1_rect * P_rect, P_c2 = T_c1_c2.inverse() * P_c1;
+    const Eigen::Vector2d raw_l(table.left_x.at<float>(v, u), table.left_y.at<float>(v, u));
+    const Eigen::Vector2d raw_r(table.right_x.at<float>(v, u - d), table.right_y.at<float>(v, u - d));
+    if (raw_l.minCoeff() < 0 || raw_r.minCoeff() < 0 || raw_l.x() > 847 || raw_r.x() > 847 || raw_l.y() > 799 ||
+        raw_r.y() > 799)
+      continue;  // outside what the raw cameras see
+    EXPECT_LT((raw_l - left.project(P_c1)).norm(), 1e-3) << u << " " << v;
+    EXPECT_LT((raw_r - right.project(P_c2)).norm(), 1e-3) << u << " " << v << " " << d;
+    ++checked;
+  }
+  EXPECT_GT(checked, 50);
+}
+
 TEST(Estimator, RefusesBadFrames) {
   const rvwo::Settings s = rvwo::Settings::fromString(kSettings, "s.yaml");
   EstimatorOptions o = readEstimatorOptions(s);

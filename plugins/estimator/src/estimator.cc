@@ -33,6 +33,8 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 
 // ORB-SLAM's chi2 gates at 95 %: 2 DoF (mono), 3 DoF (stereo).
 constexpr double kChi2Mono = 5.991, kChi2Stereo = 7.815;
+// Mono: new points are triangulated between a keyframe and this many keyframes before it.
+constexpr int kTriangulationNeighbours = 5;
 
 struct KeyFrame {
   std::uint64_t id = 0;
@@ -125,6 +127,8 @@ void EstimatorOptions::validate() const {
   if (window < 2) fail("Estimator.Window: >= 2");
   if (keep_keyframes < window + 1) fail("Estimator.KeepKeyFrames: > Estimator.Window");
   if (!(sigma_px > 0)) fail("Estimator.SigmaPx: > 0");
+  if (!(mono_min_baseline > 0)) fail("Estimator.MonoMinBaseline: > 0");
+  if (!(mono_min_parallax > 0 && mono_min_parallax < 45)) fail("Estimator.MonoMinParallax: in (0, 45) degrees");
   if (kernel == KernelChoice::kFixed && std::isnan(fixed_alpha)) fail("kernel fixed: alpha is NaN");
   reliability.validate();
   wheel_noise.validate();
@@ -135,7 +139,7 @@ struct Estimator::Impl {
   Rig rig;
   EstimatorOptions opt;
   FeatureExtractor extractor;
-  Se2XyzEdge<3> stereo_edge;
+  std::optional<Se2XyzEdge<3>> stereo_edge;  // stereo and RGB-D (rectified pinhole) only
   Se2XyzEdge<2> mono_edge;
   ReliabilityManager reliability;
   WheelOdometry odometry;
@@ -189,11 +193,11 @@ struct Estimator::Impl {
       : rig(r),
         opt(o),
         extractor(FeatureParams{o.features, o.scale_factor, o.levels, o.fast_threshold, 8, 6}),
-        stereo_edge(*r.camera, r.T_b_c, r.sensor == Sensor::kMono ? 1.0 : r.bf()),
         mono_edge(*r.camera, r.T_b_c),
         reliability(o.reliability),
         odometry(o.wheel_noise, r.T_b_o),
         segmenter(o.semantics ? std::move(seg) : nullptr) {
+    if (r.sensor != Sensor::kMono) stereo_edge.emplace(*r.camera, r.T_b_c, r.bf());
     if (segmenter && !opt.deterministic) async = std::make_unique<AsyncSegmenter>(segmenter, 4, 256);
     dynamic_labels = opt.priors.dynamicLabels();
     if (!opt.deterministic) mapper = std::thread([this] { mappingLoop(); });
@@ -259,7 +263,7 @@ struct Estimator::Impl {
   template <int N>
   const Se2XyzEdge<N>& edge() const {
     if constexpr (N == 3) {
-      return stereo_edge;
+      return *stereo_edge;
     } else {
       return mono_edge;
     }
@@ -297,6 +301,14 @@ struct Estimator::Impl {
     *g += w * Jw.transpose() * rw;
     return true;
   }
+  // Predicted (u, v, u_R) of P_w from x (mono: u_R = -1); false when it does not project.
+  bool predict(const Eigen::Vector3d& x, const Eigen::Vector3d& P_w, Eigen::Vector3d* h) const {
+    if (stereo_edge) return stereo_edge->predict(x, P_w, h);
+    Eigen::Vector2d uv;
+    if (!mono_edge.predict(x, P_w, &uv)) return false;
+    *h << uv, -1.0;
+    return true;
+  }
   // Observation (u, v, u_R) of a frame's feature (u_R = -1 without stereo or depth).
   static Eigen::Vector3d observation(const Features& f, int i) {
     const cv::KeyPoint& kp = f.keypoints[i];
@@ -321,8 +333,8 @@ struct Estimator::Impl {
       const Eigen::Vector3d P_c = T_c_w * p.P;
       const double d = P_c.norm();
       if (P_c.z() < 0.1 || d > 3 * p.distance || d < p.distance / 3) continue;
-      Eigen::Vector3d h;
-      if (!stereo_edge.predict(x, p.P, &h)) continue;
+      Eigen::Vector3d h;  // (u, v, u_R); mono: (u, v, unused)
+      if (!predict(x, p.P, &h)) continue;
       if (h.x() < 0 || h.y() < 0 || h.x() >= rig.width || h.y() >= rig.height) continue;
       ++p.visible;
       const int level = predictLevel(p, d);
@@ -456,10 +468,16 @@ struct Estimator::Impl {
     // ---- features ----
     auto t0 = Clock::now();
     Features f;
-    cv::Mat grey = toGrey(in.image);
+    const cv::Mat raw_grey = toGrey(in.image);  // what the segmenter sees (labels are rectified after)
+    cv::Mat grey = raw_grey, grey_right = rig.sensor == Sensor::kStereo ? toGrey(in.right) : cv::Mat();
+    if (rig.rectification) {
+      const cv::Mat raw_right = grey_right;
+      grey = cv::Mat();  // fresh buffers: cv::remap cannot work in place
+      grey_right = cv::Mat();
+      rig.rectification->rectify(raw_grey, raw_right, &grey, &grey_right);
+    }
     if (rig.sensor == Sensor::kStereo) {
       Features right;
-      cv::Mat grey_right = toGrey(in.right);
       std::thread worker([&] { right = extractor.extract(grey_right); });
       f = extractor.extract(grey);
       worker.join();
@@ -477,7 +495,7 @@ struct Estimator::Impl {
     if (keyframes.empty() && final_pose.empty()) {
       // ---- initialisation: the first keyframe at the world's origin, points from stereo or depth
       // (metric: no visual initialisation to check against the wheels).
-      const int made = createKeyFrame(t, Eigen::Vector3d::Zero(), std::move(f), {}, grey);
+      const int made = createKeyFrame(t, Eigen::Vector3d::Zero(), std::move(f), {}, raw_grey);
       record.ref_kf = next_kf - 1;
       record.visual = made > 0;
       lock.unlock();
@@ -566,9 +584,16 @@ struct Estimator::Impl {
     } else {
       // Vision lost: once there is texture again, a keyframe at the wheels' pose starts the map
       // anew from there (no jump); wheel edges tie it to the keyframes before.
-      const int with_depth =
-          static_cast<int>(std::count_if(f.depth.begin(), f.depth.end(), [](float d) { return d > 0; }));
-      make_kf = frames_since_kf >= 3 && with_depth >= 4 * opt.min_inliers;
+      if (rig.sensor == Sensor::kMono) {
+        // Mono: once the wheels have moved the camera far enough for a baseline.
+        const Eigen::Vector3d c = (T_w_b.isometry3() * rig.T_b_c).translation();
+        const Eigen::Vector3d c_ref = (SE2::fromVector(ref_kf.x).isometry3() * rig.T_b_c).translation();
+        make_kf = (c - c_ref).norm() >= opt.mono_min_baseline && static_cast<int>(f.size()) >= 4 * opt.min_inliers;
+      } else {
+        const int with_depth =
+            static_cast<int>(std::count_if(f.depth.begin(), f.depth.end(), [](float d) { return d > 0; }));
+        make_kf = frames_since_kf >= 3 && with_depth >= 4 * opt.min_inliers;
+      }
     }
     if (make_kf) {
       auto t4 = Clock::now();
@@ -576,7 +601,7 @@ struct Estimator::Impl {
       for (std::size_t k = 0; visual && k < matches.size(); ++k) {
         if (!inlier[k]) label_only.emplace_back(matches[k].feature, matches[k].point);
       }
-      createKeyFrame(t, T_w_b.vector(), std::move(f), point_of, grey, inliers);
+      createKeyFrame(t, T_w_b.vector(), std::move(f), point_of, raw_grey, inliers);
       keyframes.at(next_kf - 1).label_only = std::move(label_only);
       record.ref_kf = next_kf - 1;
       record.T_kf_b = SE2();
@@ -646,7 +671,7 @@ struct Estimator::Impl {
   // Makes a keyframe from the frame's features: tracked points become its observations, close
   // untracked features with depth new points (at least 100 when there are). Returns the points made.
   int createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std::vector<std::int64_t> point_of,
-                     const cv::Mat& grey, int tracked = 0) {
+                     const cv::Mat& image, int tracked = 0) {
     KeyFrame kf;
     kf.id = next_kf++;
     kf.t = t;
@@ -654,7 +679,7 @@ struct Estimator::Impl {
     kf.f = std::move(f);
     kf.tracked = tracked;
     kf.point = point_of.empty() ? std::vector<std::int64_t>(kf.f.size(), -1) : std::move(point_of);
-    kf.image = grey;
+    kf.image = image;  // for the segmenter: the camera's raw image
     for (std::size_t i = 0; i < kf.f.size(); ++i) {
       if (kf.point[i] >= 0) points.at(kf.point[i]).obs[kf.id] = static_cast<int>(i);
     }
@@ -673,26 +698,113 @@ struct Estimator::Impl {
       const Eigen::Vector3d P_c = kf.f.depth[i] * rig.camera->unproject(Eigen::Vector2d(kp.pt.x, kp.pt.y));
       const Eigen::Vector3d P_b = rig.T_b_c * P_c;
       const Eigen::Vector2d xy = T_w_b.act(P_b.head<2>());
-      MapPoint p;
-      p.id = next_point++;
-      p.P = Eigen::Vector3d(xy.x(), xy.y(), P_b.z());
-      p.descriptor = kf.f.descriptors.row(i).clone();
-      p.level = kp.octave;
-      p.distance = P_c.norm();
-      p.obs[kf.id] = i;
-      p.visible = p.found = 1;
-      p.first_kf = kf.id;
-      kf.point[i] = static_cast<std::int64_t>(p.id);
-      points.emplace(p.id, std::move(p));
+      newPoint(&kf, i, Eigen::Vector3d(xy.x(), xy.y(), P_b.z()), P_c.norm());
       ++made;
     }
-    counters.map_points_created += made;
-    if (kf.tracked == 0) kf.tracked = made;
-    frames_since_kf = 0;
     const std::uint64_t id = kf.id;
     keyframes.emplace(id, std::move(kf));
+    KeyFrame& added = keyframes.at(id);
+    if (rig.sensor == Sensor::kMono) made += triangulate(&added);
+    counters.map_points_created += made;
+    if (added.tracked == 0) added.tracked = made;
+    frames_since_kf = 0;
     if (segmenter && async) {
       async->submit(keyframes.at(id).image, FrameInfo{id, t});
+    }
+    return made;
+  }
+
+  // A new map point seen by feature i of kf at P_w (world), distance m from its camera.
+  MapPoint& newPoint(KeyFrame* kf, int i, const Eigen::Vector3d& P_w, double distance) {
+    MapPoint p;
+    p.id = next_point++;
+    p.P = P_w;
+    p.descriptor = kf->f.descriptors.row(i).clone();
+    p.level = kf->f.keypoints[i].octave;
+    p.distance = distance;
+    p.obs[kf->id] = i;
+    p.visible = p.found = 1;
+    p.first_kf = kf->id;
+    kf->point[i] = static_cast<std::int64_t>(p.id);
+    return points.emplace(p.id, std::move(p)).first->second;
+  }
+
+  // Mono: new points from kf's untracked features matched with those of the keyframes before it
+  // (kTriangulationNeighbours; two were too few to keep a map through a slow turn) (ORB-SLAM's CreateNewMapPoints, with
+  // the keyframes' poses known). Those poses carry the wheels' metric scale (the first two keyframes are placed by the
+  // wheels alone), so the map has it too; a turn on the spot (a baseline under Estimator.MonoMinBaseline) triangulates
+  // nothing, which is how a pure-rotation start is refused. A pair must lie on the epipolar plane (within 3 sigma of
+  // the coarser level, plus 2 mrad for the poses), match (Hamming <= 50, best clearly before second), meet at a
+  // parallax >= Estimator.MonoMinParallax in front of both cameras and reproject within the mono chi2 gate in both.
+  // Returns the points made. (Map lock held.)
+  int triangulate(KeyFrame* kf) {
+    const auto camera = [&](const Eigen::Vector3d& x) { return SE2::fromVector(x).isometry3() * rig.T_b_c; };
+    const Eigen::Isometry3d T_w_c1 = camera(kf->x);
+    const double cos_min = std::cos(opt.mono_min_parallax * M_PI / 180.0);
+    std::vector<double> tolerance(opt.levels);  // rad off the epipolar plane, by pyramid level
+    for (int l = 0; l < opt.levels; ++l)
+      tolerance[l] = 3.0 * opt.sigma_px * std::pow(opt.scale_factor, l) / rig.camera->fx() + 2e-3;
+    auto rays = [&](const KeyFrame& k, const Eigen::Isometry3d& T_w_c) {
+      std::vector<Eigen::Vector3d> d(k.f.size());
+      for (std::size_t i = 0; i < k.f.size(); ++i) {
+        const cv::Point2f& pt = k.f.keypoints[i].pt;
+        d[i] = (T_w_c.linear() * rig.camera->unproject(Eigen::Vector2d(pt.x, pt.y))).normalized();
+      }
+      return d;
+    };
+    const std::vector<Eigen::Vector3d> d1 = rays(*kf, T_w_c1);
+    int made = 0;
+    auto it = keyframes.find(kf->id);
+    for (int n = 0; n < kTriangulationNeighbours && it != keyframes.begin(); ++n) {
+      KeyFrame& old = (--it)->second;
+      const Eigen::Isometry3d T_w_c2 = camera(old.x);
+      const Eigen::Vector3d c1 = T_w_c1.translation(), c2 = T_w_c2.translation(), base = c2 - c1;
+      if (base.norm() < opt.mono_min_baseline) continue;
+      const std::vector<Eigen::Vector3d> d2 = rays(old, T_w_c2);
+      std::vector<int> free_old;
+      for (std::size_t j = 0; j < old.f.size(); ++j) {
+        if (old.point[j] < 0) free_old.push_back(static_cast<int>(j));
+      }
+      std::vector<int> best_dist(old.f.size(), 51), best_of(old.f.size(), -1);
+      for (std::size_t i = 0; i < kf->f.size(); ++i) {
+        if (kf->point[i] >= 0) continue;
+        const Eigen::Vector3d normal = d1[i].cross(base).normalized();  // of the epipolar plane
+        const int level = kf->f.keypoints[i].octave;
+        BestTwo match;
+        for (int j : free_old) {
+          const int old_level = old.f.keypoints[j].octave;
+          if (std::abs(old_level - level) > 1) continue;
+          if (std::fabs(normal.dot(d2[j])) > tolerance[std::max(level, old_level)] || d1[i].dot(d2[j]) > cos_min)
+            continue;
+          match.offer(hammingDistance(kf->f.descriptors.row(i), old.f.descriptors.row(j)), j);
+        }
+        if (match.index < 0 || match.best > 50 || match.best > 0.8 * match.second) continue;
+        if (match.best < best_dist[match.index]) {
+          best_dist[match.index] = match.best;
+          best_of[match.index] = static_cast<int>(i);
+        }
+      }
+      for (std::size_t j = 0; j < old.f.size(); ++j) {
+        const int i = best_of[j];
+        if (i < 0 || kf->point[i] >= 0) continue;
+        // Midpoint of the closest approach of c1 + a d1 and c2 + b d2.
+        const Eigen::Vector3d &u = d1[i], &v = d2[j];
+        const double uv = u.dot(v), den = 1.0 - uv * uv;
+        if (den < 1e-9) continue;
+        const double a = (u.dot(base) - uv * v.dot(base)) / den, b = (uv * u.dot(base) - v.dot(base)) / den;
+        if (a <= 0 || b <= 0) continue;
+        const Eigen::Vector3d P = 0.5 * (c1 + a * u + c2 + b * v);
+        auto fits = [&](const KeyFrame& k, int f) {
+          double e2;
+          const double sigma = opt.sigma_px * std::pow(opt.scale_factor, k.f.keypoints[f].octave);
+          return chi2<2>(k.x, P, observation(k.f, f), sigma, &e2) && e2 <= kChi2Mono;
+        };
+        if (!fits(*kf, i) || !fits(old, static_cast<int>(j))) continue;
+        MapPoint& p = newPoint(kf, i, P, (P - c1).norm());
+        p.obs[old.id] = static_cast<int>(j);
+        old.point[j] = static_cast<std::int64_t>(p.id);
+        ++made;
+      }
     }
     return made;
   }
@@ -774,6 +886,10 @@ struct Estimator::Impl {
       kf.image.release();
       if (!seg) continue;
       ++counters.segmented_keyframes;
+      if (rig.rectification) {  // labels of the raw image, onto the rectified one
+        seg->labels = rig.rectification->rectifyLeftLabels(seg->labels);
+        seg->confidence.release();  // (the lookup does not use it)
+      }
       const LabelLookup lookup(*seg, dynamic_labels, opt.label_dilation_px);
       for (std::size_t i = 0; i < kf.f.size(); ++i) {
         if (kf.point[i] < 0) continue;
@@ -916,14 +1032,25 @@ struct Estimator::Impl {
     };
     auto cost = [&](const Obs& o) -> ceres::CostFunction* {
       const Eigen::Vector3d &xk = x[o.kf], &Pk = P[o.point];
-      if (o.stereo) return new ceres_adapters::Se2XyzCost<3>(stereo_edge, o.z, sqrtInformation<3>(xk, Pk, o.sigma));
+      if (o.stereo) return new ceres_adapters::Se2XyzCost<3>(*stereo_edge, o.z, sqrtInformation<3>(xk, Pk, o.sigma));
       return new ceres_adapters::Se2XyzCost<2>(mono_edge, o.z.head<2>(), sqrtInformation<2>(xk, Pk, o.sigma));
     };
-    for (std::size_t k = 0; k < obs.size(); ++k) {
-      const Obs& o = obs[k];
-      Eigen::Vector3d h;
-      if (!stereo_edge.predict(x[o.kf], P[o.point], &h)) continue;
-      blocks[k] = problem.AddResidualBlock(cost(o), loss(alpha[o.point], o.stereo), x[o.kf].data(), P[o.point].data());
+    // A mono point needs two views to be fixed in depth; with one it is left out (as it is).
+    const int min_edges = rig.sensor == Sensor::kMono ? 2 : 1;
+    {
+      std::vector<int> projecting(P.size(), 0);
+      std::vector<char> projects(obs.size(), 0);
+      for (std::size_t k = 0; k < obs.size(); ++k) {
+        Eigen::Vector2d h;
+        projects[k] = mono_edge.predict(x[obs[k].kf], P[obs[k].point], &h);
+        projecting[obs[k].point] += projects[k];
+      }
+      for (std::size_t k = 0; k < obs.size(); ++k) {
+        const Obs& o = obs[k];
+        if (!projects[k] || projecting[o.point] < min_edges) continue;
+        blocks[k] =
+            problem.AddResidualBlock(cost(o), loss(alpha[o.point], o.stereo), x[o.kf].data(), P[o.point].data());
+      }
     }
     if (opt.mode == Mode::kVw) {
       // Wheel edges between consecutive keyframes of the window (and from the fixed one before it).
@@ -972,11 +1099,14 @@ struct Estimator::Impl {
           blocks[k] = nullptr;
         }
       }
-      // A point whose every edge left would make the Schur complement singular: it leaves too.
+      // A point whose every edge left (mono: all but one) would make the Schur complement
+      // singular: it leaves too.
       std::vector<int> edges_left(P.size(), 0);
       for (std::size_t k = 0; k < obs.size(); ++k) edges_left[obs[k].point] += blocks[k] != nullptr;
       for (std::size_t pi = 0; pi < P.size(); ++pi) {
-        if (edges_left[pi] == 0 && problem.HasParameterBlock(P[pi].data())) problem.RemoveParameterBlock(P[pi].data());
+        if (edges_left[pi] < min_edges && problem.HasParameterBlock(P[pi].data())) {
+          problem.RemoveParameterBlock(P[pi].data());  // with its edges
+        }
       }
       so.max_num_iterations = 10;
       ceres::Solve(so, &problem, &summary);
@@ -1068,10 +1198,9 @@ struct Estimator::Impl {
 Estimator::Estimator(const Rig& rig, const EstimatorOptions& options, std::shared_ptr<Segmenter> segmenter) {
   options.validate();
   if (!rig.camera) throw std::invalid_argument("estimator: the rig has no camera");
-  // Mono needs points triangulated between keyframes (with the wheels' baseline for scale): not
-  // built yet. Refused rather than run on wheels alone while looking like visual odometry.
-  if (rig.sensor == Sensor::kMono && options.mode != Mode::kWheel)
-    throw std::invalid_argument("estimator: a mono camera is not supported yet (stereo or RGB-D; --mode wheel runs)");
+  // Mono takes its scale from the wheels: vision alone has none to give.
+  if (rig.sensor == Sensor::kMono && options.mode == Mode::kVo)
+    throw std::invalid_argument("estimator: a mono camera needs the wheels for its scale (--mode vw or wheel)");
   if (rig.sensor != Sensor::kMono && rig.camera->kind() != CameraModel::Kind::kPinhole)
     throw std::invalid_argument("estimator: stereo and RGB-D need a rectified pinhole camera");
   if (!(rig.baseline > 0)) throw std::invalid_argument("estimator: Stereo.b must be > 0");

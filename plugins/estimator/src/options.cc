@@ -2,6 +2,8 @@
 #include "rvwo/estimator/options.h"
 
 #include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 namespace rvwo::estimator {
@@ -25,6 +27,54 @@ Eigen::Isometry3d isometry(const Settings& s, const std::string& key, bool requi
 }
 
 }  // namespace
+
+void StereoRectification::rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat* left_out,
+                                  cv::Mat* right_out) const {
+  cv::remap(left, *left_out, left_x, left_y, cv::INTER_LINEAR);
+  cv::remap(right, *right_out, right_x, right_y, cv::INTER_LINEAR);
+}
+
+cv::Mat StereoRectification::rectifyLeftLabels(const cv::Mat& labels) const {
+  cv::Mat out;
+  cv::remap(labels, out, left_x, left_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(-1));
+  return out;
+}
+
+void rectifyFisheyeStereo(const KannalaBrandtCamera& left, const KannalaBrandtCamera& right,
+                          const Eigen::Isometry3d& T_c1_c2, Rig* rig) {
+  auto K = [](const CameraModel& c) -> cv::Mat {
+    return cv::Mat_<double>({3, 3}, {c.fx(), 0, c.cx(), 0, c.fy(), c.cy(), 0, 0, 1});
+  };
+  auto D = [](const KannalaBrandtCamera& c) -> cv::Mat {
+    return cv::Mat_<double>({4, 1}, {c.k()(0), c.k()(1), c.k()(2), c.k()(3)});
+  };
+  // OpenCV's R, T take the left camera's coordinates to the right's: T_c2_c1.
+  const Eigen::Isometry3d T_c2_c1 = T_c1_c2.inverse();
+  cv::Mat R(3, 3, CV_64F), T(3, 1, CV_64F);
+  for (int i = 0; i < 3; ++i) {
+    T.at<double>(i) = T_c2_c1.translation()(i);
+    for (int j = 0; j < 3; ++j) R.at<double>(i, j) = T_c2_c1.linear()(i, j);
+  }
+  const cv::Size size(rig->width, rig->height);
+  cv::Mat R1, R2, P1, P2, Q;
+  // balance 0: the rectified view keeps only pixels both raw images have.
+  cv::fisheye::stereoRectify(K(left), D(left), K(right), D(right), size, R, T, R1, R2, P1, P2, Q,
+                             cv::CALIB_ZERO_DISPARITY, size, 0.0, 1.0);
+  auto table = std::make_shared<StereoRectification>();
+  cv::fisheye::initUndistortRectifyMap(K(left), D(left), R1, P1, size, CV_32FC1, table->left_x, table->left_y);
+  cv::fisheye::initUndistortRectifyMap(K(right), D(right), R2, P2, size, CV_32FC1, table->right_x, table->right_y);
+  const double fx = P1.at<double>(0, 0);
+  rig->camera = std::make_shared<PinholeCamera>(fx, P1.at<double>(1, 1), P1.at<double>(0, 2), P1.at<double>(1, 2));
+  rig->baseline = std::fabs(P2.at<double>(0, 3)) / fx;  // P2 = [K' | -K' (b, 0, 0)]
+  // R1 turns the raw left camera's coordinates into the rectified one's: T_c1_rect = [R1^T | 0].
+  Eigen::Matrix3d R1e;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) R1e(i, j) = R1.at<double>(i, j);
+  Eigen::Isometry3d T_c1_rect = Eigen::Isometry3d::Identity();
+  T_c1_rect.linear() = R1e.transpose();
+  rig->T_b_c = rig->T_b_c * T_c1_rect;
+  rig->rectification = std::move(table);
+}
 
 Rig readRig(const Settings& s) {
   Rig rig;
@@ -56,7 +106,18 @@ Rig readRig(const Settings& s) {
   rig.fps = s.requireNumber("Camera.fps");
   if (rig.width <= 0 || rig.height <= 0 || !(rig.fps > 0))
     throw std::invalid_argument(s.path() + ": Camera.width, Camera.height and Camera.fps must be > 0");
-  if (rig.sensor == Sensor::kStereo) {
+  if (rig.sensor == Sensor::kStereo && type == "KannalaBrandt8") {
+    const double fx2 = s.requireNumber("Camera2.fx"), fy2 = s.requireNumber("Camera2.fy");
+    if (!(fx2 > 0 && fy2 > 0)) throw std::invalid_argument(s.path() + ": Camera2.fx and Camera2.fy must be > 0");
+    const KannalaBrandtCamera right(fx2, fy2, s.requireNumber("Camera2.cx"), s.requireNumber("Camera2.cy"),
+                                    s.requireNumber("Camera2.k1"), s.requireNumber("Camera2.k2"),
+                                    s.requireNumber("Camera2.k3"), s.requireNumber("Camera2.k4"));
+    const Eigen::Isometry3d T_c1_c2 = isometry(s, "Stereo.T_c1_c2", true);
+    if (!(T_c1_c2.translation().norm() > 0))
+      throw std::invalid_argument(s.path() + ": Stereo.T_c1_c2 must separate the cameras");
+    rig.T_b_c = isometry(s, "Camera.T_b_c", true);
+    rectifyFisheyeStereo(static_cast<const KannalaBrandtCamera&>(*rig.camera), right, T_c1_c2, &rig);
+  } else if (rig.sensor == Sensor::kStereo) {
     rig.baseline = s.requireNumber("Stereo.b");
   } else {
     rig.baseline = s.number("Stereo.b").value_or(0.08);  // RGB-D: a virtual baseline for u_R
@@ -66,7 +127,7 @@ Rig readRig(const Settings& s) {
     rig.depth_factor = s.requireNumber("RGBD.DepthMapFactor");
     if (!(rig.depth_factor > 0)) throw std::invalid_argument(s.path() + ": RGBD.DepthMapFactor must be > 0");
   }
-  rig.T_b_c = isometry(s, "Camera.T_b_c", true);
+  if (!rig.rectification) rig.T_b_c = isometry(s, "Camera.T_b_c", true);
   const Eigen::Isometry3d T_b_o = isometry(s, "Odometry.T_b_o", false);
   rig.T_b_o =
       SE2(T_b_o.translation().x(), T_b_o.translation().y(), std::atan2(T_b_o.linear()(1, 0), T_b_o.linear()(0, 0)));
@@ -84,6 +145,8 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Estimator.SearchRadius", &o.search_radius);
   num("Estimator.MinInliers", &o.min_inliers);
   num("Estimator.CloseDepthBaselines", &o.max_depth_baselines);
+  num("Estimator.MonoMinBaseline", &o.mono_min_baseline);
+  num("Estimator.MonoMinParallax", &o.mono_min_parallax);
   num("Estimator.KeyFrameMaxFrames", &o.keyframe_max_frames);
   num("Estimator.KeyFrameRatio", &o.keyframe_ratio);
   num("Estimator.Window", &o.window);

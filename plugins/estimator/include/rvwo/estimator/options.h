@@ -6,7 +6,8 @@
 //
 //   Sensor: "stereo" | "rgbd" | "mono"                   Camera.type: "PinHole" | "KannalaBrandt8"
 //   Camera1.fx/fy/cx/cy [px], Camera1.k1..k4 (fisheye)    Camera.width/height [px], Camera.fps [Hz]
-//   Stereo.b [m] (stereo; RGB-D: the virtual baseline, default 0.08)
+//   Stereo.b [m] (rectified stereo; RGB-D: the virtual baseline, default 0.08)
+//   fisheye stereo: Camera2.fx/fy/cx/cy/k1..k4, Stereo.T_c1_c2 (4x4: the right camera in the left's frame)
 //   RGBD.DepthMapFactor [raw units per metre]             Camera.T_b_c, Odometry.T_b_o: 4x4 matrices
 //   Odometry.*, Reliability.*, Semantics.*                (rvwo/settings/settings.h)
 //   Estimator.*: the knobs of EstimatorOptions below, e.g. Estimator.Features: 1000
@@ -14,6 +15,7 @@
 
 #include <Eigen/Geometry>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 
 #include "rvwo/edges/camera.h"
@@ -32,17 +34,33 @@ enum class Mode { kWheel, kVo, kVw };
 // landmark's shape from the reliability model (the paper's adaptive kernel, eq. 7).
 enum class KernelChoice { kHuber, kFixed, kAdaptive };
 
+// A fisheye stereo pair (ORB-SLAM3's KannalaBrandt8 stereo: Camera1.*, Camera2.*, Stereo.T_c1_c2)
+// is rectified on input into a pinhole pair (cv::fisheye::stereoRectify); the rig then describes
+// the rectified pair, and these tables map the raw images (and the left one's labels) onto it.
+struct StereoRectification {
+  cv::Mat left_x, left_y, right_x, right_y;  // cv::remap tables: raw pixel of each rectified one
+  void rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat* left_out, cv::Mat* right_out) const;
+  cv::Mat rectifyLeftLabels(const cv::Mat& labels) const;  // nearest label
+};
+
 struct Rig {
   Sensor sensor = Sensor::kStereo;
-  std::shared_ptr<const CameraModel> camera;                // pinhole for stereo and RGB-D (rectified)
-  int width = 640, height = 480;                            // px
-  double fps = 30;                                          // Hz
-  double baseline = 0.12;                                   // m (RGB-D: virtual, for the u_R coordinate)
-  double depth_factor = 1000;                               // RGB-D raw depth units per metre
-  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();  // camera in the robot's base frame
-  SE2 T_b_o;                                                // odometry frame in the base frame
-  double bf() const;                                        // baseline * fx, px m
+  std::shared_ptr<const CameraModel> camera;                 // pinhole for stereo and RGB-D (rectified)
+  std::shared_ptr<const StereoRectification> rectification;  // fisheye stereo: raw to rectified
+  int width = 640, height = 480;                             // px
+  double fps = 30;                                           // Hz
+  double baseline = 0.12;                                    // m (RGB-D: virtual, for the u_R coordinate)
+  double depth_factor = 1000;                                // RGB-D raw depth units per metre
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();   // camera in the robot's base frame
+  SE2 T_b_o;                                                 // odometry frame in the base frame
+  double bf() const;                                         // baseline * fx, px m
 };
+
+// The rectified pinhole pair of two Kannala-Brandt cameras, the right one at T_c1_c2 in the
+// left's frame, images rig.width x rig.height. Sets rig.camera, rig.baseline and rig.rectification, and
+// turns rig.T_b_c (the raw left camera's) into the rectified left camera's.
+void rectifyFisheyeStereo(const KannalaBrandtCamera& left, const KannalaBrandtCamera& right,
+                          const Eigen::Isometry3d& T_c1_c2, Rig* rig);
 
 struct EstimatorOptions {
   Mode mode = Mode::kVw;
@@ -63,6 +81,10 @@ struct EstimatorOptions {
   double search_radius = 12;        // px at level 0, projection search (Estimator.SearchRadius)
   int min_inliers = 20;             // fewer: vision has failed this frame, the wheels carry the pose
   double max_depth_baselines = 40;  // close points (ORB-SLAM's ThDepth): new points closer than this many baselines
+  // ---- mono: points triangulated between keyframes whose poses the wheels scale
+  double mono_min_baseline =
+      0.05;  // m between camera centres; less (a turn on the spot) triangulates nothing (Estimator.MonoMinBaseline)
+  double mono_min_parallax = 1.0;  // degrees between the two rays of a new point (Estimator.MonoMinParallax)
   // ---- keyframes and local mapping
   int keyframe_max_frames = 15;  // a keyframe at least this often (frames) while tracking
   double keyframe_ratio = 0.75;  // or when fewer than this share of the reference keyframe's points are tracked
