@@ -51,8 +51,36 @@ void DiffDriveParams::validate() const {
   }
 }
 
+Eigen::Matrix3d calibrationTwistJacobian(const Eigen::Vector3d& xi) {
+  Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
+  E(0, 0) = xi.x();  // v_x (1 + c_s)
+  E(2, 1) = xi.z();  // w (1 + c_w)
+  E(2, 2) = xi.x();  // + c_k v_x
+  return E;
+}
+
+Eigen::Matrix3d se2ExpJacobian(const Eigen::Vector3d& xi) {
+  // t = V(w) v, V = [[a, -b], [b, a]], a = sin w / w, b = (1 - cos w) / w (series near 0).
+  const double w = xi.z();
+  double a, b, da, db;
+  if (std::fabs(w) < 1e-4) {
+    a = 1.0 - w * w / 6.0;
+    b = 0.5 * w - w * w * w / 24.0;
+    da = -w / 3.0;
+    db = 0.5 - w * w / 8.0;
+  } else {
+    a = std::sin(w) / w;
+    b = (1.0 - std::cos(w)) / w;
+    da = (w * std::cos(w) - std::sin(w)) / (w * w);
+    db = (w * std::sin(w) - 1.0 + std::cos(w)) / (w * w);
+  }
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+  J << a, -b, da * xi.x() - db * xi.y(), b, a, db * xi.x() + da * xi.y(), 0, 0, 1;
+  return J;
+}
+
 void WheelPreintegrator::integrate(const Eigen::Vector2d& dp, double dphi, const Eigen::Matrix3d& sigma_n,
-                                   Eigen::Matrix3d* A_out, Eigen::Matrix3d* B_out) {
+                                   Eigen::Matrix3d* A_out, Eigen::Matrix3d* B_out, const Eigen::Matrix3d& C) {
   const Eigen::Matrix2d R = rotation2(dphi_);
   const Eigen::Vector2d Rdp = R * dp;
   // eq. 12: A_k = [[I, J R(Dphi) dp], [0, 1]], B_k = [[R(Dphi), 0], [0, 1]]
@@ -61,6 +89,7 @@ void WheelPreintegrator::integrate(const Eigen::Vector2d& dp, double dphi, const
   Eigen::Matrix3d B = Eigen::Matrix3d::Identity();
   B.block<2, 2>(0, 0) = R;
   cov_ = A * cov_ * A.transpose() + B * sigma_n * B.transpose();  // eq. 13
+  H_ = A * H_ + B * C;                                            // the calibration's, alike
   dp_ += Rdp;                                                     // eq. 11
   dphi_ += dphi;
   if (A_out) *A_out = A;
@@ -91,7 +120,7 @@ void WheelOdometry::addPose(double t, const SE2& T_odom_o) {
     const SE2 inc = last_pose_.between(T_odom_o);
     const Eigen::Vector3d xi = inc.log();  // the constant-twist arc through both poses
     const double ds = xi.head<2>().norm(), dt = t - last_t_;
-    segments_.push_back({last_t_, t, inc, noise_.poseReadingCovariance(ds, xi.z(), dt), ds, std::fabs(xi.z())});
+    segments_.push_back({last_t_, t, inc, xi, noise_.poseReadingCovariance(ds, xi.z(), dt), ds, std::fabs(xi.z())});
   }
   last_pose_ = T_odom_o;
   last_t_ = t;
@@ -127,22 +156,12 @@ void WheelOdometry::pushWheelIncrement(double t, double dq_l, double dq_r, const
   const double w = (rr * dq_r - rl * dq_l) / tw;
   // The increment is the exact constant-curvature arc exp(ds, 0, w); docs/maths.md's
   // (ds cos(w/2), ds sin(w/2)) is its first-order form.
-  const SE2 inc = SE2::exp(Eigen::Vector3d(ds, 0.0, w));
-  // d(tx, ty, phi)/d(ds, w), with t = ds (a(w), b(w)), a = sin w / w, b = (1 - cos w) / w.
-  double a, b, da, db;
-  if (std::fabs(w) < 1e-4) {
-    a = 1.0 - w * w / 6.0;
-    b = 0.5 * w - w * w * w / 24.0;
-    da = -w / 3.0;
-    db = 0.5 - w * w / 8.0;
-  } else {
-    a = std::sin(w) / w;
-    b = (1.0 - std::cos(w)) / w;
-    da = (w * std::cos(w) - std::sin(w)) / (w * w);
-    db = (w * std::sin(w) - 1.0 + std::cos(w)) / (w * w);
-  }
+  const Eigen::Vector3d xi(ds, 0.0, w);
+  const SE2 inc = SE2::exp(xi);
+  // d(tx, ty, phi)/d(ds, w): the exponential's Jacobian without its v_y column.
+  const Eigen::Matrix3d J_exp = se2ExpJacobian(xi);
   Eigen::Matrix<double, 3, 2> d_inc_d_sw;
-  d_inc_d_sw << a, ds * da, b, ds * db, 0.0, 1.0;
+  d_inc_d_sw << J_exp.col(0), J_exp.col(2);
   Eigen::Matrix2d d_sw_d_q;
   d_sw_d_q << 0.5 * rl, 0.5 * rr, -rl / tw, rr / tw;
   const Eigen::Matrix<double, 3, 2> G = d_inc_d_sw * d_sw_d_q;
@@ -153,7 +172,7 @@ void WheelOdometry::pushWheelIncrement(double t, double dq_l, double dq_r, const
   sigma_n(0, 0) += noise_.floor_p * noise_.floor_p * dt;
   sigma_n(1, 1) += noise_.sigma_y * noise_.sigma_y * std::fabs(ds) + noise_.floor_p * noise_.floor_p * dt;
   sigma_n(2, 2) += noise_.floor_phi * noise_.floor_phi * dt;
-  segments_.push_back({last_t_, t, inc, sigma_n, std::fabs(ds), std::fabs(w)});
+  segments_.push_back({last_t_, t, inc, xi, sigma_n, std::fabs(ds), std::fabs(w)});
 }
 
 double WheelOdometry::firstTime() const {
@@ -166,7 +185,7 @@ double WheelOdometry::lastTime() const {
   return segments_.back().t1;
 }
 
-WheelDelta WheelOdometry::integrate(double t0, double t1) const {
+WheelDelta WheelOdometry::integrate(double t0, double t1, const WheelCalibration& c) const {
   if (segments_.empty() || !(t0 >= segments_.front().t0) || !(t1 <= segments_.back().t1) || !(t0 <= t1)) {
     std::ostringstream o;
     o.precision(17);
@@ -190,9 +209,12 @@ WheelDelta WheelOdometry::integrate(double t0, double t1) const {
     const double f = fb - fa;
     if (f <= 0.0) continue;
     // A part of a reading: the same fraction of its constant-twist arc, and of its noise (which
-    // is linear in the distance, rotation and time it covers).
-    const SE2 piece = f == 1.0 ? it->increment : it->increment.fraction(f);
-    pre.integrate(piece.translation(), piece.angle(), f * it->sigma_n);
+    // is linear in the distance, rotation and time it covers); its twist corrected by c.
+    const Eigen::Vector3d xi = f * it->xi;
+    const Eigen::Matrix3d E = calibrationTwistJacobian(xi);
+    const SE2 piece = c.isZero() ? (f == 1.0 ? it->increment : it->increment.fraction(f)) : SE2::exp(xi + E * c);
+    const Eigen::Matrix3d C = se2ExpJacobian(xi + E * c) * E;
+    pre.integrate(piece.translation(), piece.angle(), f * it->sigma_n, nullptr, nullptr, C);
     out.distance += f * it->ds;
     out.rotation += f * it->dphi_abs;
   }
@@ -207,6 +229,8 @@ WheelDelta WheelOdometry::integrate(double t0, double t1) const {
   G.block<2, 2>(0, 0) = R_beta;
   G.block<2, 1>(0, 2) = -perp(R_dphi_t);
   out.covariance = G * pre.covariance() * G.transpose();
+  out.calibration = c;
+  out.d_calibration = G * pre.calibrationJacobian();
   return out;
 }
 

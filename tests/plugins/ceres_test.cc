@@ -75,6 +75,13 @@ TEST(CeresCosts, GradientCheckerPasses) {
     ceres::GradientChecker check(&cost, &two_poses, ceres::NumericDiffOptions());
     ceres::GradientChecker::ProbeResults results;
     EXPECT_TRUE(check.Probe(params, 1e-7, &results)) << results.error_log;
+    // With the odometry's calibration as a third block (Euclidean).
+    const ceres_adapters::WheelCalibratedCost calibrated{WheelEdge(ba.wheel[k])};
+    Eigen::Vector3d c(0.01, -0.02, 0.05);
+    const double* params3[] = {xi.data(), xj.data(), c.data()};
+    std::vector<const ceres::Manifold*> poses_and_c = {&se2, &se2, nullptr};
+    ceres::GradientChecker check3(&calibrated, &poses_and_c, ceres::NumericDiffOptions());
+    EXPECT_TRUE(check3.Probe(params3, 1e-7, &results)) << results.error_log;
   }
 }
 

@@ -46,4 +46,20 @@ bool WheelCost::Evaluate(double const* const* parameters, double* residuals, dou
   return true;
 }
 
+bool WheelCalibratedCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const Eigen::Map<const Eigen::Vector3d> xi(parameters[0]), xj(parameters[1]), c(parameters[2]);
+  Eigen::Matrix3d J[3];
+  bool want[3];
+  for (int k = 0; k < 3; ++k) want[k] = jacobians && jacobians[k];
+  const Eigen::Vector3d r =
+      edge_.residual(xi, xj, c, want[0] ? &J[0] : nullptr, want[1] ? &J[1] : nullptr, want[2] ? &J[2] : nullptr);
+  const Eigen::Matrix3d& S = edge_.sqrtInformation();
+  Eigen::Map<Eigen::Vector3d>{residuals} = S * r;
+  using RowMajor = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+  for (int k = 0; k < 3; ++k) {
+    if (want[k]) Eigen::Map<RowMajor>{jacobians[k]} = S * J[k];
+  }
+  return true;
+}
+
 }  // namespace rvwo::ceres_adapters

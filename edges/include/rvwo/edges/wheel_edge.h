@@ -27,6 +27,14 @@ class WheelEdge {
                            Eigen::Matrix3d* J_j = nullptr) const {
     return wheelResidual(x_i, x_j, delta_.dp, delta_.dphi, J_i, J_j);
   }
+  // The same with the odometry's calibration c as a variable: the delta at c to first order
+  // (WheelDelta::at), so dr/dc = -d_calibration.
+  Eigen::Vector3d residual(const Eigen::Vector3d& x_i, const Eigen::Vector3d& x_j, const WheelCalibration& c,
+                           Eigen::Matrix3d* J_i, Eigen::Matrix3d* J_j, Eigen::Matrix3d* J_c) const {
+    const Eigen::Vector3d d = delta_.at(c);
+    if (J_c) *J_c = -delta_.d_calibration;
+    return wheelResidual(x_i, x_j, d.head<2>(), d.z(), J_i, J_j);
+  }
   const WheelDelta& delta() const { return delta_; }
   const Eigen::Matrix3d& information() const { return information_; }
   // S (lower triangular) with S^T S = information: whitened residual = S r (for Ceres).

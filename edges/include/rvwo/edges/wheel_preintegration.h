@@ -14,6 +14,21 @@
 //
 // Sigma_n,k scales with the motion the reading covers (distance, rotation, time), never with the
 // number of readings, so the result does not depend on the odometry rate (WheelNoise).
+//
+// Calibration (beyond the paper: real wheels are never the nominal ones, and a bias is not noise).
+// Each reading's twist xi = (v_x, v_y, w) = log(increment) in the odometry frame is corrected by
+// c = (c_s, c_w, c_k):
+//
+//   xi'(c) = (v_x (1 + c_s), v_y, w (1 + c_w) + c_k v_x)
+//
+// c_s scales the distance, c_w the turn, c_k (rad/m) bends a straight drive; a differential drive
+// whose radii are off by d_l, d_r and track by d_b has, to first order, c_s = (d_l + d_r)/2,
+// c_w = (d_l + d_r)/2 - d_b, c_k = (d_r - d_l)/b. The Jacobian of the delta w.r.t. c is
+// propagated beside the covariance (as GTSAM's preintegration carries its bias Jacobians):
+//
+//   H_{k+1} = A_k H_k + B_k C_k,   C_k = d(dp_k, dphi_k)/dxi * dxi'/dc
+//
+// so that an estimator can refine c without integrating again: delta(c) ~ delta(c0) + H (c - c0).
 #pragma once
 
 #include <Eigen/Core>
@@ -52,33 +67,50 @@ struct DiffDriveParams {
   void validate() const;
 };
 
+// The odometry's calibration correction c = (c_s, c_w, c_k): distance scale, turn scale (both
+// relative), curvature bias (rad/m). Zero: the nominal odometry.
+using WheelCalibration = Eigen::Vector3d;
+
+// The twist correction dxi'/dc at xi (see the header comment).
+Eigen::Matrix3d calibrationTwistJacobian(const Eigen::Vector3d& xi);
+// d(t, phi)/d(v_x, v_y, w) of exp(xi) = (V(w) v, w), SE(2)'s exponential.
+Eigen::Matrix3d se2ExpJacobian(const Eigen::Vector3d& xi);
+
 // The preintegrated motion of the body between two times.
 struct WheelDelta {
-  double t0 = 0.0, t1 = 0.0;                             // s
-  Eigen::Vector2d dp = Eigen::Vector2d::Zero();          // m, in the body frame at t0
-  double dphi = 0.0;                                     // rad, not wrapped (a full turn stays 2 pi)
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of (dp, dphi)
-  double distance = 0.0;                                 // m travelled (sum of |ds|)
-  double rotation = 0.0;                                 // rad turned (sum of |dphi|)
-  SE2 pose() const { return SE2(dp, dphi); }             // T_b0_b1
+  double t0 = 0.0, t1 = 0.0;                                // s
+  Eigen::Vector2d dp = Eigen::Vector2d::Zero();             // m, in the body frame at t0
+  double dphi = 0.0;                                        // rad, not wrapped (a full turn stays 2 pi)
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();     // of (dp, dphi)
+  double distance = 0.0;                                    // m travelled (sum of |ds|)
+  double rotation = 0.0;                                    // rad turned (sum of |dphi|)
+  WheelCalibration calibration = WheelCalibration::Zero();  // c it was integrated with
+  Eigen::Matrix3d d_calibration = Eigen::Matrix3d::Zero();  // d(dp, dphi)/dc there
+  SE2 pose() const { return SE2(dp, dphi); }                // T_b0_b1
+  // (dp, dphi) at calibration c, to first order from the one integrated.
+  Eigen::Vector3d at(const WheelCalibration& c) const {
+    return Eigen::Vector3d(dp.x(), dp.y(), dphi) + d_calibration * (c - calibration);
+  }
 };
 
 // The accumulator of eqs. 11 to 13, frame-agnostic: it integrates whatever increments it is given.
 class WheelPreintegrator {
  public:
   void reset() { *this = WheelPreintegrator(); }
-  // One increment (dp, dphi) in the current body frame with its covariance Sigma_n. Optional
-  // outputs: the step Jacobians A_k and B_k.
+  // One increment (dp, dphi) in the current body frame with its covariance Sigma_n and its
+  // Jacobian C_k w.r.t. the calibration (zero: none). Optional outputs: the step Jacobians A_k and B_k.
   void integrate(const Eigen::Vector2d& dp, double dphi, const Eigen::Matrix3d& sigma_n, Eigen::Matrix3d* A = nullptr,
-                 Eigen::Matrix3d* B = nullptr);
+                 Eigen::Matrix3d* B = nullptr, const Eigen::Matrix3d& C = Eigen::Matrix3d::Zero());
   const Eigen::Vector2d& dp() const { return dp_; }
   double dphi() const { return dphi_; }
   const Eigen::Matrix3d& covariance() const { return cov_; }
+  const Eigen::Matrix3d& calibrationJacobian() const { return H_; }  // d(dp, dphi)/dc
 
  private:
   Eigen::Vector2d dp_ = Eigen::Vector2d::Zero();
   double dphi_ = 0.0;
   Eigen::Matrix3d cov_ = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d H_ = Eigen::Matrix3d::Zero();
 };
 
 // A time-stamped stream of odometry at any rate, integrated between any two times. One input
@@ -99,9 +131,10 @@ class WheelOdometry {
   bool empty() const { return segments_.empty(); }
   double firstTime() const;  // of the first reading
   double lastTime() const;   // of the last reading
-  // Motion of the body between t0 and t1, firstTime() <= t0 <= t1 <= lastTime(); a reading that
-  // straddles t0 or t1 is split along its constant-twist arc. Throws std::out_of_range otherwise.
-  WheelDelta integrate(double t0, double t1) const;
+  // Motion of the body between t0 and t1, firstTime() <= t0 <= t1 <= lastTime(), every reading
+  // corrected by the calibration c; a reading that straddles t0 or t1 is split along its
+  // constant-twist arc. Throws std::out_of_range otherwise.
+  WheelDelta integrate(double t0, double t1, const WheelCalibration& c = WheelCalibration::Zero()) const;
   // T_w_b at t1 predicted from T_w_b at t0 (for tracking).
   SE2 predict(const SE2& T_w_b0, double t0, double t1) const { return T_w_b0 * integrate(t0, t1).pose(); }
   // Forget the readings that end before t (what leaves the window stops costing).
@@ -112,6 +145,7 @@ class WheelOdometry {
   struct Segment {
     double t0, t1;
     SE2 increment;            // T_o(t0)_o(t1)
+    Eigen::Vector3d xi;       // its twist, log(increment)
     Eigen::Matrix3d sigma_n;  // of (dp, dphi)
     double ds, dphi_abs;      // m, rad: |motion| covered
   };

@@ -5,6 +5,7 @@
 //
 //   Se2XyzCost<N>: blocks (x, y, theta)[3] and P_w[3]; residual S (h - z), N = 2 mono, 3 stereo.
 //   WheelCost:     blocks (x, y, theta)_i[3] and (x, y, theta)_j[3]; residual S r (eq. 14).
+//   WheelCalibratedCost: the same and the odometry's calibration c[3] (rvwo/edges/wheel_preintegration.h).
 //
 // Use SE2Manifold on the pose blocks. A projection that fails (point behind the camera) makes
 // Evaluate return false, which Ceres treats as an infeasible step: do not add edges for points
@@ -43,6 +44,15 @@ class Se2XyzCost final : public ceres::SizedCostFunction<N, 3, 3> {
 class WheelCost final : public ceres::SizedCostFunction<3, 3, 3> {
  public:
   explicit WheelCost(const WheelEdge& edge) : edge_(edge) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  WheelEdge edge_;
+};
+
+class WheelCalibratedCost final : public ceres::SizedCostFunction<3, 3, 3, 3> {
+ public:
+  explicit WheelCalibratedCost(const WheelEdge& edge) : edge_(edge) {}
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
