@@ -454,8 +454,15 @@ int main(int argc, char** argv) {
     }
     if (rep.wheel_only_intervals.size() > 8) std::printf(", ... %zu stretches", rep.wheel_only_intervals.size());
     std::printf("%s\n", rep.wheel_only_intervals.empty() ? "" : ")");
-    if (opt.mode == rvwo::estimator::Mode::kVw)
-      std::printf("  frames where vision overruled the wheels (a slip): %zu\n", rep.slip_frames);
+    if (opt.mode == rvwo::estimator::Mode::kVw) {
+      std::printf("  frames where vision overruled the wheels (a slip): %zu; wheel edges local BA found wrong: %zu\n",
+                  rep.slip_frames, rep.wheel_edge_outliers);
+      if (opt.calibrate) {
+        const rvwo::WheelCalibration& c = rep.wheel_calibration;
+        std::printf("  wheel calibration (estimated): distance x%.4f, turn x%.4f, curvature %+.4f rad/m\n", 1 + c.x(),
+                    1 + c.y(), c.z());
+      }
+    }
     if (skipped > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped);
     std::printf("  speed: %.1f s of data in %.1f s: %.2fx real time, %.1f frames/s; peak memory %.0f MB\n", seq_s, wall,
                 seq_s / wall, rep.frames / wall, peakMemoryMb());

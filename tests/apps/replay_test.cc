@@ -66,6 +66,12 @@ Outcome replay(const fs::path& dir, const std::string& args, const std::string& 
   return r;
 }
 
+// The figures a run measured, on the test's output (for the issue's notes).
+void show(const std::string& what, const Outcome& r) {
+  std::printf("[ figures  ] %-28s ATE %.4f m = %.3f %% of %.1f m, largest 1-frame step %.4f m\n", what.c_str(), r.ate,
+              r.path > 0 ? 100 * r.ate / r.path : 0.0, r.path, r.max_step);
+}
+
 std::size_t lines(const fs::path& p) {
   std::ifstream in(p);
   std::string l;
@@ -84,9 +90,24 @@ TEST(Replay, StaticEveryFrameAccurateAndAdaptiveCostsNothing) {
     ASSERT_EQ(r->status, 0) << r->err;
     EXPECT_EQ(r->poses, frames);  // every frame has a pose
   }
+  show("static wheel", wheel);
+  show("static vw huber", huber);
+  show("static vw adaptive", adaptive);
   EXPECT_LE(adaptive.ate, 0.005 * adaptive.path) << adaptive.out;
   EXPECT_LE(adaptive.ate, 1.05 * huber.ate);
   EXPECT_LT(adaptive.ate, wheel.ate);
+  // The wheels' calibration, refined by local BA, recovers the simulator's: radii 1 % over and
+  // under (a bend of (d_r - d_l) / b = -0.05 rad/m) and a track 2 % wide (turns x 0.98).
+  const std::size_t at = adaptive.out.find("wheel calibration (estimated): ");
+  ASSERT_NE(at, std::string::npos) << adaptive.out;
+  double distance = 0, turn = 0, curvature = 0;
+  ASSERT_EQ(
+      std::sscanf(adaptive.out.c_str() + at, "wheel calibration (estimated): distance x%lf, turn x%lf, curvature %lf",
+                  &distance, &turn, &curvature),
+      3);
+  EXPECT_NEAR(curvature, -0.05, 0.005);
+  EXPECT_NEAR(turn, 0.98, 0.005);
+  EXPECT_NEAR(distance, 1.0, 0.01);
   // Deterministic mode: the same input gives the same bytes.
   replay(dir, "--kernel adaptive", "adaptive2");
   EXPECT_EQ(slurp(dir / "adaptive.txt"), slurp(dir / "adaptive2.txt"));
@@ -105,9 +126,10 @@ TEST(Replay, DynamicAdaptiveKernelBeatsHuber) {
   ASSERT_EQ(huber.status, 0) << huber.err;
   ASSERT_EQ(adaptive.status, 0) << adaptive.err;
   EXPECT_EQ(adaptive.poses, lines(dir / "groundtruth.txt"));
-  // The issue asks 0.7 on the suite's 90 s sequence (the closing note's table); this 20 s cut
-  // measured 0.75 (adaptive 0.0227 m, Huber 0.0302 m): the test holds it at 0.8.
-  EXPECT_LE(adaptive.ate, 0.8 * huber.ate) << "adaptive " << adaptive.ate << ", huber " << huber.ate;
+  show("dynamic vw huber", huber);
+  show("dynamic vw adaptive", adaptive);
+  // The issue's ratio. Measured on this 20 s cut: adaptive 0.0354 m (0.81 %), Huber 0.1286 m: 0.28.
+  EXPECT_LE(adaptive.ate, 0.7 * huber.ate) << "adaptive " << adaptive.ate << ", huber " << huber.ate;
   EXPECT_LE(adaptive.ate, 0.01 * adaptive.path);
   fs::remove_all(dir);
 }
@@ -117,9 +139,11 @@ TEST(Replay, SlipVisionHalvesTheWheelError) {
   const Outcome wheel = replay(dir, "--mode wheel", "wheel");
   const Outcome vw = replay(dir, "", "vw");
   ASSERT_EQ(vw.status, 0) << vw.err;
-  EXPECT_LE(vw.ate, 0.5 * wheel.ate) << "vw " << vw.ate << ", wheel " << wheel.ate;
-  // Measured 2.1 % of this cut's 4.3 m path (the slip is 2 s of it; 0.5 % is not met yet).
-  EXPECT_LE(vw.ate, 0.025 * vw.path);
+  show("slip wheel", wheel);
+  show("slip vw", vw);
+  // Measured 0.56 % of this cut's 4.2 m path, the wheels 2.8 % (the slip is 2 s of it).
+  EXPECT_LE(vw.ate, 0.3 * wheel.ate) << "vw " << vw.ate << ", wheel " << wheel.ate;
+  EXPECT_LE(vw.ate, 0.01 * vw.path);
   fs::remove_all(dir);
 }
 
@@ -129,8 +153,10 @@ TEST(Replay, BlackoutWheelsCarryThePoseWithoutAJump) {
   const Outcome vw = replay(dir, "", "vw");
   ASSERT_EQ(vw.status, 0) << vw.err;
   EXPECT_EQ(vw.poses, lines(dir / "groundtruth.txt"));
+  show("blackout wheel", wheel);
+  show("blackout vw", vw);
   EXPECT_LE(vw.ate, wheel.ate);
-  EXPECT_LE(vw.ate, 0.006 * vw.path);  // measured 0.52 % of this cut's 4.9 m path (4 s of it blind)
+  EXPECT_LE(vw.ate, 0.005 * vw.path);  // the issue's bound; measured 0.04 % of this cut's 4.8 m path (4 s blind)
   EXPECT_LE(vw.max_step, 0.05) << "a pose jump when vision returned";
   // The report names the stretch on wheels only (the blackout, 20-24 s).
   EXPECT_NE(vw.out.find("frames on wheels only: "), std::string::npos);
@@ -167,6 +193,8 @@ TEST(Replay, CamerasMonoAndFisheye) {
     const Outcome vw = replay(dir, "", "vw");
     ASSERT_EQ(vw.status, 0) << vw.err;
     EXPECT_EQ(vw.poses, lines(dir / "groundtruth.txt"));
+    show(c.camera + " " + c.lens + " wheel", wheel);
+    show(c.camera + " " + c.lens + " vw", vw);
     // Measured: mono 0.30 % (pinhole) and 0.08 % (fisheye), fisheye stereo 0.07 %; wheels 0.58 %.
     EXPECT_LE(vw.ate, c.bound * vw.path) << vw.out;
     EXPECT_LT(vw.ate, wheel.ate) << "vw " << vw.ate << ", wheel " << wheel.ate;

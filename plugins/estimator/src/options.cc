@@ -161,6 +161,7 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Odometry.WheelRadiusLeft", &o.drive.radius_left);
   num("Odometry.WheelRadiusRight", &o.drive.radius_right);
   num("Odometry.Track", &o.drive.track);
+  if (const auto v = s.number("Odometry.Calibrate")) o.calibrate = *v != 0;
   o.reliability = readReliability(s, o.reliability);
   o.priors = readSemanticPriors(s);
   try {

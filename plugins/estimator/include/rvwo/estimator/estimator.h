@@ -56,8 +56,10 @@ struct Report {
   std::vector<std::pair<double, double>> wheel_only_intervals;  // [t0, t1] s, frames on wheels only
   std::size_t map_points_created = 0, map_points_rejected = 0;  // rejected: alpha = -inf when they left the map
   std::size_t segmented_keyframes = 0;
-  std::size_t slip_frames = 0;  // frames where vision alone explained clearly more than vision with the wheels
-  std::vector<std::pair<std::string, TimingStats>> timings;  // per stage
+  std::size_t slip_frames = 0;          // frames where vision alone explained clearly more than vision with the wheels
+  std::size_t wheel_edge_outliers = 0;  // wheel edges local BA found contradicted by vision (slips, skids)
+  WheelCalibration wheel_calibration = WheelCalibration::Zero();  // the odometry's, as estimated (vw)
+  std::vector<std::pair<std::string, TimingStats>> timings;       // per stage
 };
 
 struct PoseEstimate {

@@ -102,6 +102,11 @@ struct EstimatorOptions {
   double barron_scale = 2.0;
   WheelNoise wheel_noise;
   DiffDriveParams drive;
+  // ---- the odometry's calibration c (rvwo/edges/wheel_preintegration.h), refined by local BA in
+  // vw (Odometry.Calibrate: 1 | 0): a prior around zero, and a bound on how far one BA may move it.
+  bool calibrate = true;
+  Eigen::Vector3d calibration_sigma{0.05, 0.05, 0.2};     // distance scale, turn scale, curvature (rad/m)
+  Eigen::Vector3d calibration_step{0.003, 0.003, 0.005};  // the same, per local BA
   ReliabilityParams reliability;
   SemanticPriors priors = SemanticPriors::builtin("voc21");
   int label_dilation_px = 8;  // widen dynamic classes' masks by this much (their edges are the least sure)
