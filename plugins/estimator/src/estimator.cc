@@ -307,6 +307,9 @@ struct Estimator::Impl {
     *g += w * Jw.transpose() * rw;
     return true;
   }
+  // The camera's pose in the world at the robot pose x = (x, y, theta).
+  Eigen::Isometry3d T_w_c(const Eigen::Vector3d& x) const { return SE2::fromVector(x).isometry3() * rig.T_b_c; }
+
   // Predicted (u, v, u_R) of P_w from x (mono: u_R = -1); false when it does not project.
   bool predict(const Eigen::Vector3d& x, const Eigen::Vector3d& P_w, Eigen::Vector3d* h) const {
     if (stereo_edge) return stereo_edge->predict(x, P_w, h);
@@ -334,7 +337,7 @@ struct Estimator::Impl {
     std::vector<Match> matches;
     std::vector<int> best_dist(f.size(), 256);
     std::vector<std::int64_t> best_point(f.size(), -1);
-    const Eigen::Isometry3d T_c_w = (SE2::fromVector(x).isometry3() * rig.T_b_c).inverse();
+    const Eigen::Isometry3d T_c_w = T_w_c(x).inverse();
     for (auto& [id, p] : points) {
       const Eigen::Vector3d P_c = T_c_w * p.P;
       const double d = P_c.norm();
@@ -593,9 +596,9 @@ struct Estimator::Impl {
       // anew from there (no jump); wheel edges tie it to the keyframes before.
       if (rig.sensor == Sensor::kMono) {
         // Mono: once the wheels have moved the camera far enough for a baseline.
-        const Eigen::Vector3d c = (T_w_b.isometry3() * rig.T_b_c).translation();
-        const Eigen::Vector3d c_ref = (SE2::fromVector(ref_kf.x).isometry3() * rig.T_b_c).translation();
-        make_kf = (c - c_ref).norm() >= opt.mono_min_baseline && static_cast<int>(f.size()) >= 4 * opt.min_inliers;
+        make_kf =
+            (T_w_c(T_w_b.vector()).translation() - T_w_c(ref_kf.x).translation()).norm() >= opt.mono_min_baseline &&
+            static_cast<int>(f.size()) >= 4 * opt.min_inliers;
       } else {
         const int with_depth =
             static_cast<int>(std::count_if(f.depth.begin(), f.depth.end(), [](float d) { return d > 0; }));
@@ -716,7 +719,7 @@ struct Estimator::Impl {
     if (added.tracked == 0) added.tracked = made;
     frames_since_kf = 0;
     if (segmenter && async) {
-      async->submit(keyframes.at(id).image, FrameInfo{id, t});
+      async->submit(added.image, FrameInfo{id, t});
     }
     return made;
   }
@@ -745,8 +748,7 @@ struct Estimator::Impl {
   // parallax >= Estimator.MonoMinParallax in front of both cameras and reproject within the mono chi2 gate in both.
   // Returns the points made. (Map lock held.)
   int triangulate(KeyFrame* kf) {
-    const auto camera = [&](const Eigen::Vector3d& x) { return SE2::fromVector(x).isometry3() * rig.T_b_c; };
-    const Eigen::Isometry3d T_w_c1 = camera(kf->x);
+    const Eigen::Isometry3d T_w_c1 = T_w_c(kf->x);
     const double cos_min = std::cos(opt.mono_min_parallax * M_PI / 180.0);
     std::vector<double> tolerance(opt.levels);  // rad off the epipolar plane, by pyramid level
     for (int l = 0; l < opt.levels; ++l)
@@ -764,7 +766,7 @@ struct Estimator::Impl {
     auto it = keyframes.find(kf->id);
     for (int n = 0; n < kTriangulationNeighbours && it != keyframes.begin(); ++n) {
       KeyFrame& old = (--it)->second;
-      const Eigen::Isometry3d T_w_c2 = camera(old.x);
+      const Eigen::Isometry3d T_w_c2 = T_w_c(old.x);
       const Eigen::Vector3d c1 = T_w_c1.translation(), c2 = T_w_c2.translation(), base = c2 - c1;
       if (base.norm() < opt.mono_min_baseline) continue;
       const std::vector<Eigen::Vector3d> d2 = rays(old, T_w_c2);
@@ -1069,8 +1071,8 @@ struct Estimator::Impl {
     }
     const WheelCalibration c_before = c;
     const bool calibrate = opt.mode == Mode::kVw && opt.calibrate;
-    std::vector<ceres::ResidualBlockId> wheel_blocks;
     struct WheelSpan {
+      ceres::ResidualBlockId block;
       std::size_t a, b;
       Eigen::Vector3d delta;  // (dp, dphi) the wheels measured
     };
@@ -1093,14 +1095,12 @@ struct Estimator::Impl {
           // caught after the first round (below).
           const bool slipped = slipBetween(kf_t[a], kf_t[b]);
           ceres::LossFunction* wheel_loss = slipped ? new ceres::HuberLoss(std::sqrt(kChi2Stereo)) : nullptr;
-          if (calibrate) {
-            wheel_blocks.push_back(problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(WheelEdge(*d)),
-                                                            wheel_loss, x[a].data(), x[b].data(), c.data()));
-          } else {
-            wheel_blocks.push_back(problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(*d)), wheel_loss,
-                                                            x[a].data(), x[b].data()));
-          }
-          wheel_edges.push_back({a, b, d->at(c)});
+          const ceres::ResidualBlockId block =
+              calibrate ? problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(WheelEdge(*d)), wheel_loss,
+                                                   x[a].data(), x[b].data(), c.data())
+                        : problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(*d)), wheel_loss,
+                                                   x[a].data(), x[b].data());
+          wheel_edges.push_back({block, a, b, d->at(c)});
         } catch (const std::invalid_argument&) {
         }
       }
@@ -1134,19 +1134,16 @@ struct Estimator::Impl {
       // that tracking did not catch). Among walkers, where a window may be pulled any way, the
       // wheel edges stay (dropping every edge beyond the gate: dynamic 3.9 % with Huber kernels,
       // 0.75 % adaptive; this rule: 1.2 % and 0.54 %, slip 0.29 % and 0.10 %; measured).
-      for (std::size_t k = 0; k < wheel_blocks.size(); ++k) {
+      for (const WheelSpan& w : wheel_edges) {
         double cost = 0;
-        if (!problem.EvaluateResidualBlock(wheel_blocks[k], false, &cost, nullptr, nullptr) ||
-            2.0 * cost <= kChi2WheelOutlier)
+        if (!problem.EvaluateResidualBlock(w.block, false, &cost, nullptr, nullptr) || 2.0 * cost <= kChi2WheelOutlier)
           continue;
-        const WheelSpan& w = wheel_edges[k];
         const Eigen::Vector2d p_ij = rotation2(x[w.a].z()).transpose() * (x[w.b].head<2>() - x[w.a].head<2>());
         const Eigen::Vector2d dp = w.delta.head<2>(), miss = dp - p_ij;
         if (dp.norm() < 0.02) continue;
         const double along = miss.dot(dp.normalized());
         if (along > 0.3 * dp.norm() && along * along > 0.6 * miss.squaredNorm()) {
-          problem.RemoveResidualBlock(wheel_blocks[k]);
-          wheel_blocks[k] = nullptr;
+          problem.RemoveResidualBlock(w.block);
           ++wheel_outliers;
         }
       }
