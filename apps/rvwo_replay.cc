@@ -52,12 +52,24 @@ namespace {
 namespace fs = std::filesystem;
 using rvwo::estimator::FrameInput;
 
+cv::Mat loadImage(const mrpt::img::CImage& image, int flags) {
+  if (image.isExternallyStored()) {
+    const std::string path = image.getExternalStorageFileAbsolutePath();
+    cv::Mat m = cv::imread(path, flags);
+    if (m.empty()) throw std::runtime_error("cannot read image " + path);
+    return m;
+  }
+  return image.asCvMat<cv::Mat>(mrpt::img::SHALLOW_COPY).clone();
+}
+
 // Label images that came in the rawlog (sensor LABELS), served by timestamp: the simulator's
-// ground truth or a dataset's masks, through the same Segmenter interface as a network.
+// ground truth or a dataset's masks, through the same Segmenter interface as a network. Decoded
+// only when a keyframe asks (one frame in ten or so: decoding every one cost a fifth of a replay's
+// time).
 class RawlogLabels final : public rvwo::Segmenter {
  public:
   explicit RawlogLabels(std::vector<std::string> classes) : classes_(std::move(classes)) {}
-  void add(double t, cv::Mat labels) {
+  void add(double t, mrpt::img::CImage labels) {
     std::lock_guard<std::mutex> lock(mutex_);
     labels_[t] = std::move(labels);
     while (labels_.size() > 90) labels_.erase(labels_.begin());  // 3 s at 30 Hz: a keyframe asks at once
@@ -67,20 +79,35 @@ class RawlogLabels final : public rvwo::Segmenter {
     return !labels_.empty();
   }
   rvwo::Segmentation segment(const cv::Mat&, const rvwo::FrameInfo& info) override {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::unique_lock<std::mutex> lock(mutex_);
     auto it = labels_.lower_bound(info.timestamp - 1e-4);
     if (it == labels_.end() || std::fabs(it->first - info.timestamp) > 1e-4)
       throw std::runtime_error("no label image at t = " + std::to_string(info.timestamp));
+    const mrpt::img::CImage image = it->second;
+    lock.unlock();
     rvwo::Segmentation s;
-    it->second.convertTo(s.labels, CV_32S);
+    try {
+      loadImage(image, cv::IMREAD_UNCHANGED).convertTo(s.labels, CV_32S);
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> elock(mutex_);
+      if (failures_++ == 0) first_failure_ = e.what();
+      throw;
+    }
     return s;
   }
   const std::vector<std::string>& classNames() const override { return classes_; }
+  // Label images that could not be decoded, and the first one's error.
+  std::pair<std::size_t, std::string> failures() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return {failures_, first_failure_};
+  }
 
  private:
   std::vector<std::string> classes_;
   mutable std::mutex mutex_;
-  std::map<double, cv::Mat> labels_;
+  std::map<double, mrpt::img::CImage> labels_;
+  std::size_t failures_ = 0;
+  std::string first_failure_;
 };
 
 // What the reader thread hands over, in rawlog order.
@@ -92,22 +119,12 @@ struct Odometry {
 };
 struct Labels {
   double t;
-  cv::Mat image;
+  mrpt::img::CImage image;  // not decoded yet (a path, when stored outside the rawlog)
 };
 struct Skip {
   std::string why;
 };
 using Event = std::variant<FrameInput, Odometry, Labels, Skip>;
-
-cv::Mat loadImage(const mrpt::img::CImage& image, int flags) {
-  if (image.isExternallyStored()) {
-    const std::string path = image.getExternalStorageFileAbsolutePath();
-    cv::Mat m = cv::imread(path, flags);
-    if (m.empty()) throw std::runtime_error("cannot read image " + path);
-    return m;
-  }
-  return image.asCvMat<cv::Mat>(mrpt::img::SHALLOW_COPY).clone();
-}
 
 // Reads and decodes ahead of the estimator in a thread of its own (bounded: a few frames).
 class Prefetcher {
@@ -198,7 +215,9 @@ class Prefetcher {
           } else if (obs->sensorLabel == labels_) {
             auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
             if (!im) throw std::runtime_error("sensor " + labels_ + " is not a CObservationImage");
-            push(Labels{t, loadImage(im->image, cv::IMREAD_UNCHANGED)});
+            if (im->image.isExternallyStored() && !fs::exists(im->image.getExternalStorageFileAbsolutePath()))
+              throw std::runtime_error("cannot read image " + im->image.getExternalStorageFileAbsolutePath());
+            push(Labels{t, im->image});
           }
         } catch (const std::exception& e) {
           push(Skip{where + ": " + e.what()});
@@ -447,6 +466,9 @@ int main(int argc, char** argv) {
         "  frames %zu over %.1f s, keyframes %zu, map points made %zu (rejected by the kernel: %zu), segmented "
         "keyframes %zu\n",
         rep.frames, seq_s, rep.keyframes, rep.map_points_created, rep.map_points_rejected, rep.segmented_keyframes);
+    if (rawlog_labels && rawlog_labels->failures().first > 0)
+      std::printf("  label images that could not be read: %zu (their keyframes went unlabelled; first: %s)\n",
+                  rawlog_labels->failures().first, rawlog_labels->failures().second.c_str());
     std::printf("  frames on wheels only: %zu", rep.wheel_only_frames);
     for (std::size_t i = 0; i < rep.wheel_only_intervals.size() && i < 8; ++i) {
       std::printf("%s%.2f-%.2f s", i ? ", " : " (", rep.wheel_only_intervals[i].first - first_t,

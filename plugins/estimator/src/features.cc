@@ -45,15 +45,15 @@ std::vector<int> Features::near(float u, float v, float radius, int min_level, i
 
 FeatureExtractor::FeatureExtractor(const FeatureParams& params) : params_(params) {
   // Twice the budget is detected, then shared out over the grid, so that texture-rich corners of
-  // the image do not take every feature (ORB-SLAM's octree does the same job).
+  // the image do not take every feature (ORB-SLAM's octree does the same job); only those kept
+  // are described.
   orb_ = cv::ORB::create(2 * params.features, static_cast<float>(params.scale_factor), params.levels, 19, 0, 2,
                          cv::ORB::FAST_SCORE, 31, params.fast_threshold);
 }
 
 Features FeatureExtractor::extract(const cv::Mat& image) const {
   std::vector<cv::KeyPoint> all;
-  cv::Mat all_desc;
-  orb_->detectAndCompute(image, cv::noArray(), all, all_desc);
+  orb_->detect(image, all);
   // Grid: each cell first takes its strongest keypoints up to an equal share; what is left of
   // the budget goes to the strongest of the rest.
   const int cells = params_.grid_cols * params_.grid_rows;
@@ -82,13 +82,14 @@ Features FeatureExtractor::extract(const cv::Mat& image) const {
   }
   Features f;
   f.keypoints.reserve(n);
-  f.descriptors.create(n, 32, CV_8U);
-  int row = 0;
   for (std::size_t i = 0; i < all.size(); ++i) {
-    if (!chosen[i]) continue;
-    f.keypoints.push_back(all[i]);
-    all_desc.row(static_cast<int>(i)).copyTo(f.descriptors.row(row++));
+    if (chosen[i]) f.keypoints.push_back(all[i]);
   }
+  // Described once chosen: half the detections never are (cv::ORB keeps the keypoints' order and
+  // gives the descriptors detectAndCompute would; its border filter has nothing to drop here).
+  orb_->compute(image, f.keypoints, f.descriptors);
+  n = static_cast<int>(f.keypoints.size());
+  if (f.descriptors.empty()) f.descriptors.create(0, 32, CV_8U);
   f.u_right.assign(n, -1.f);
   f.depth.assign(n, -1.f);
   f.buildGrid(image.cols, image.rows);
