@@ -75,7 +75,11 @@ struct EstimatorOptions {
   // ---- features (Estimator.Features, .ScaleFactor, .Levels, .FastThreshold)
   int features = 1000;        // ORB keypoints per image, spread over a grid
   double scale_factor = 1.2;  // pyramid
-  int levels = 8;
+  // Six levels span a scale of 2.5, plenty for a ground robot's change of distance between
+  // keyframes; ORB-SLAM's eight (3.6) cost a quarter more CPU in a stereo replay for no accuracy
+  // (90 s suite, deterministic, 8 -> 6 levels: static 0.024 -> 0.030 %, dynamic 0.134 -> 0.128 %,
+  // slip 0.119 -> 0.088 % of the path).
+  int levels = 6;
   int fast_threshold = 12;
   // ---- tracking
   double search_radius = 12;        // px at level 0, projection search (Estimator.SearchRadius)
