@@ -10,6 +10,8 @@
 #include <cmath>
 #include <condition_variable>
 #include <deque>
+#include <functional>
+#include <future>
 #include <map>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
@@ -61,6 +63,52 @@ bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   if (travel < 1e-4) return true;  // a turn on the spot: no direction to hold vision to
   return T_b0_b1_vision.translation().dot(wheels.dp / travel) <= travel + sp;  // went no farther
 }
+
+// One worker thread running tasks in the order given; submit() returns the result's future
+// (an exception thrown by the task comes out of its get()).
+class TaskQueue {
+ public:
+  TaskQueue() : thread_([this] { run(); }) {}
+  ~TaskQueue() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_one();
+    thread_.join();
+  }
+  template <typename T>
+  std::future<T> submit(std::function<T()> f) {
+    auto task = std::make_shared<std::packaged_task<T()>>(std::move(f));
+    std::future<T> result = task->get_future();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      tasks_.emplace_back([task] { (*task)(); });
+    }
+    cv_.notify_one();
+    return result;
+  }
+
+ private:
+  void run() {
+    for (;;) {
+      std::function<void()> task;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        cv_.wait(lock, [this] { return stop_ || !tasks_.empty(); });
+        if (tasks_.empty()) return;  // stop, and nothing left
+        task = std::move(tasks_.front());
+        tasks_.pop_front();
+      }
+      task();
+    }
+  }
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<std::function<void()>> tasks_;
+  bool stop_ = false;
+  std::thread thread_;
+};
 
 struct KeyFrame {
   std::uint64_t id = 0;
@@ -188,7 +236,21 @@ struct Estimator::Impl {
   Report counters;
 
   // ---- tracking state (tracking thread only) ----
-  std::deque<FrameInput> pending;
+  // What tracking needs of a frame's images, made without the map: features, their stereo
+  // matches or depth, and the grey image the segmenter will see.
+  struct FrontEnd {
+    Features f;
+    cv::Mat raw_grey;  // before rectification (labels are rectified after)
+  };
+  // Frames waiting for the odometry to pass their time, with their front ends under way.
+  struct PendingFrame {
+    FrameInput in;
+    std::future<FrontEnd> front_end;  // not valid: made when tracked (deterministic, wheel mode)
+  };
+  std::deque<PendingFrame> pending;
+  // The front end runs one frame ahead of tracking in a thread of its own (not deterministic):
+  // while tracking matches and optimises frame k, frame k+1's features are being extracted.
+  std::unique_ptr<TaskQueue> front_end_queue;
   double last_t = -1;  // of the last processed frame
   SE2 last_pose;       // its T_w_b (absolute, refreshed from its reference keyframe)
   SE2 velocity;        // T_{k-1}_{k}: constant-velocity model without wheels
@@ -229,6 +291,7 @@ struct Estimator::Impl {
     if (segmenter && !opt.deterministic) async = std::make_unique<AsyncSegmenter>(segmenter, 4, 256);
     dynamic_labels = opt.priors.dynamicLabels();
     if (!opt.deterministic) mapper = std::thread([this] { mappingLoop(); });
+    if (!opt.deterministic) front_end_queue = std::make_unique<TaskQueue>();
   }
 
   ~Impl() { stopMapper(); }
@@ -471,7 +534,37 @@ struct Estimator::Impl {
     return odometry.integrate(t0, t1, calibration);
   }
 
-  void processFrame(const FrameInput& in) {
+  FrontEnd frontEnd(const FrameInput& in) {
+    FrontEnd out;
+    auto t0 = Clock::now();
+    Features& f = out.f;
+    const cv::Mat raw_grey = toGrey(in.image);
+    out.raw_grey = raw_grey;
+    cv::Mat grey = raw_grey, grey_right = rig.sensor == Sensor::kStereo ? toGrey(in.right) : cv::Mat();
+    if (rig.rectification) {
+      const cv::Mat raw_right = grey_right;
+      grey = cv::Mat();  // fresh buffers: cv::remap cannot work in place
+      grey_right = cv::Mat();
+      rig.rectification->rectify(raw_grey, raw_right, &grey, &grey_right);
+    }
+    if (rig.sensor == Sensor::kStereo) {
+      Features right;
+      std::thread worker([&] { right = extractor.extract(grey_right); });
+      f = extractor.extract(grey);
+      worker.join();
+      timings.add("features", msSince(t0));
+      auto t1 = Clock::now();
+      matchStereo(grey, grey_right, right, rig.bf(), 0.5, rig.bf() / 0.2, &f);
+      timings.add("stereo", msSince(t1));
+    } else {
+      f = extractor.extract(grey);
+      if (rig.sensor == Sensor::kRgbd) depthFromImage(in.depth, rig.depth_factor, rig.bf(), &f);
+      timings.add("features", msSince(t0));
+    }
+    return out;
+  }
+
+  void processFrame(const FrameInput& in, std::future<FrontEnd> front_end = {}) {
     const double t = in.timestamp;
     // ---- predict ----
     std::optional<WheelDelta> delta;
@@ -497,31 +590,10 @@ struct Estimator::Impl {
       return;
     }
 
-    // ---- features ----
-    auto t0 = Clock::now();
-    Features f;
-    const cv::Mat raw_grey = toGrey(in.image);  // what the segmenter sees (labels are rectified after)
-    cv::Mat grey = raw_grey, grey_right = rig.sensor == Sensor::kStereo ? toGrey(in.right) : cv::Mat();
-    if (rig.rectification) {
-      const cv::Mat raw_right = grey_right;
-      grey = cv::Mat();  // fresh buffers: cv::remap cannot work in place
-      grey_right = cv::Mat();
-      rig.rectification->rectify(raw_grey, raw_right, &grey, &grey_right);
-    }
-    if (rig.sensor == Sensor::kStereo) {
-      Features right;
-      std::thread worker([&] { right = extractor.extract(grey_right); });
-      f = extractor.extract(grey);
-      worker.join();
-      timings.add("features", msSince(t0));
-      auto t1 = Clock::now();
-      matchStereo(grey, grey_right, right, rig.bf(), 0.5, rig.bf() / 0.2, &f);
-      timings.add("stereo", msSince(t1));
-    } else {
-      f = extractor.extract(grey);
-      if (rig.sensor == Sensor::kRgbd) depthFromImage(in.depth, rig.depth_factor, rig.bf(), &f);
-      timings.add("features", msSince(t0));
-    }
+    // ---- features (made ahead, in the front end's thread) ----
+    FrontEnd fe = front_end.valid() ? front_end.get() : frontEnd(in);
+    Features f = std::move(fe.f);
+    const cv::Mat& raw_grey = fe.raw_grey;
 
     std::unique_lock<std::mutex> lock(map_mutex);
     if (keyframes.empty() && final_pose.empty()) {
@@ -1263,17 +1335,20 @@ struct Estimator::Impl {
   void drain(bool all) {
     // A frame waits until the odometry has passed its time (so its prediction has the readings
     // that straddle it), for at most a second of frames.
-    while (!pending.empty()) {
-      const double t = pending.front().timestamp;
+    // With a front end running ahead, a frame is also held until the next one has come, so that
+    // the next one's features are made while this one is tracked (a frame's latency more).
+    const std::size_t lookahead = front_end_queue && opt.mode != Mode::kWheel ? 1 : 0;
+    while (pending.size() > (all ? 0 : lookahead)) {
+      const double t = pending.front().in.timestamp;
       bool ready = all || opt.mode == Mode::kVo || pending.size() > static_cast<std::size_t>(rig.fps) + 1;
       if (!ready) {
         std::lock_guard<std::mutex> lock(odometry_mutex);
         ready = !odometry.empty() && odometry.lastTime() >= t;
       }
       if (!ready) break;
-      FrameInput in = std::move(pending.front());
+      PendingFrame next = std::move(pending.front());
       pending.pop_front();
-      processFrame(in);
+      processFrame(next.in, std::move(next.front_end));
     }
   }
 };
@@ -1345,7 +1420,11 @@ void Estimator::addFrame(const FrameInput& frame) {
     }
   }
   s.added_t = frame.timestamp;
-  s.pending.push_back(frame);
+  Impl::PendingFrame p{frame, {}};
+  if (s.front_end_queue && s.opt.mode != Mode::kWheel) {
+    p.front_end = s.front_end_queue->submit<Impl::FrontEnd>([&s, frame] { return s.frontEnd(frame); });
+  }
+  s.pending.push_back(std::move(p));
   s.drain(false);
 }
 
