@@ -110,6 +110,15 @@ class TaskQueue {
   std::thread thread_;
 };
 
+// Whether vision's motion differs from the wheels' beyond their 3 sigma + 5 mm / 5 mrad.
+bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
+  const Eigen::Matrix3d& S = wheels.covariance;
+  const double sp = 3.0 * std::sqrt(S(0, 0) + S(1, 1)) + 0.005;
+  const double sphi = 3.0 * std::sqrt(S(2, 2)) + 0.005;
+  return (wheels.dp - T_b0_b1_vision.translation()).norm() > sp ||
+         std::fabs(wheels.dphi - T_b0_b1_vision.angle()) > sphi;
+}
+
 struct KeyFrame {
   std::uint64_t id = 0;
   double t = 0;
@@ -257,6 +266,7 @@ struct Estimator::Impl {
   int frames_since_kf = 0;
   bool has_last = false, last_visual = true;
   std::size_t slip_frames = 0;                 // frames where vision overruled the wheels
+  bool slipping = false;                       // the last frame was one (tracking's)
   std::atomic<std::size_t> wheel_outliers{0};  // wheel edges local BA found wrong
   std::mutex slip_mutex;
   std::deque<double> slip_times;  // of those frames, since the oldest keyframe in memory
@@ -634,15 +644,25 @@ struct Estimator::Impl {
       // was, explains clearly more landmarks: it wins and the wheel edge is dropped for this
       // frame. Among walkers the wheels side with the static landmarks and keep the pose. (Not
       // tried when too few matches are left over for vision alone to win.)
-      if (prior && static_cast<double>(matches.size()) > 1.3 * inliers + 10) {
+      // Once slipping, vision alone stays in charge while the wheels go on claiming motion it does
+      // not see and it explains no fewer matches: decided afresh each frame, the wheel prior pulled
+      // the pose a little every frame until vision alone won again, a sawtooth of up to 0.4 m.
+      const bool was_slipping = slipping;
+      slipping = false;
+      if (prior && (was_slipping || static_cast<double>(matches.size()) > 1.3 * inliers + 10)) {
         Eigen::Vector3d x_vision = last_pose.vector();
         std::vector<char> inlier_v;
         std::vector<double> errors_v;
         const int inliers_v =
             optimisePose(f, matches, std::nullopt, last_pose.vector(), &x_vision, &inlier_v, &errors_v);
+        const SE2 T_vision = last_pose.inverse() * SE2::fromVector(x_vision);
         // ... by most of the matches, not just by a walker's, and in the way a slip would.
-        if (inliers_v > 1.3 * inliers + 10 && inliers_v >= 0.85 * static_cast<double>(matches.size()) &&
-            looksLikeSlip(*delta, last_pose.inverse() * SE2::fromVector(x_vision))) {
+        const bool starts = inliers_v > 1.3 * inliers + 10 && inliers_v >= 0.85 * static_cast<double>(matches.size()) &&
+                            looksLikeSlip(*delta, T_vision);
+        const bool goes_on =
+            was_slipping && inliers_v >= inliers && looksLikeSlip(*delta, T_vision) && wheelsDisagree(*delta, T_vision);
+        if (starts || goes_on) {
+          slipping = true;
           x = x_vision;
           inliers = inliers_v;
           inlier.swap(inlier_v);
