@@ -34,7 +34,12 @@ void BM_ExtractOrb(benchmark::State& state) {
   for (auto _ : state) n = extractor.extract(image).size();
   state.counters["keypoints"] = static_cast<double>(n);
 }
-BENCHMARK(BM_ExtractOrb)->Args({1000, 8})->Args({1000, 6})->Args({1000, 4})->Args({500, 8})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ExtractOrb)
+    ->Args({1000, 8})
+    ->Args({1000, 6})
+    ->Args({1000, 4})
+    ->Args({500, 8})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_MatchStereo(benchmark::State& state) {
   const cv::Mat left = tumFrame();

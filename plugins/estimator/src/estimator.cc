@@ -42,6 +42,14 @@ constexpr double kChi2WheelOutlier = 16.27;
 // Mono: new points are triangulated between a keyframe and this many keyframes before it.
 constexpr int kTriangulationNeighbours = 5;
 
+// What the wheels' noise allows between them and vision over one delta: 3 sigma + 5 mm / 5 mrad.
+struct WheelTolerance {
+  double translation, rotation;  // m, rad
+  explicit WheelTolerance(const WheelDelta& wheels)
+      : translation(3.0 * std::sqrt(wheels.covariance(0, 0) + wheels.covariance(1, 1)) + 0.005),
+        rotation(3.0 * std::sqrt(wheels.covariance(2, 2)) + 0.005) {}
+};
+
 // A slip as wheels make one: they claimed motion the robot did not make (spinning or skidding on
 // the spot). So vision alone went no farther along the wheels' direction than they claimed, and
 // turned no more their way (beyond their 3 sigma and 5 mm / 5 mrad a frame), and the difference
@@ -52,9 +60,8 @@ constexpr int kTriangulationNeighbours = 5;
 // off the robot.
 bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   constexpr double kMaxMiss = 0.25, kMaxTurnMiss = 0.2;  // m, rad
-  const Eigen::Matrix3d& S = wheels.covariance;
-  const double sp = 3.0 * std::sqrt(S(0, 0) + S(1, 1)) + 0.005;
-  const double sphi = 3.0 * std::sqrt(S(2, 2)) + 0.005;
+  const WheelTolerance tol(wheels);
+  const double sp = tol.translation, sphi = tol.rotation;
   const Eigen::Vector2d miss = wheels.dp - T_b0_b1_vision.translation();
   const double turn_miss = wheels.dphi - T_b0_b1_vision.angle();
   if (miss.norm() > kMaxMiss || std::fabs(turn_miss) > kMaxTurnMiss) return false;
@@ -62,6 +69,13 @@ bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   const double travel = wheels.dp.norm();
   if (travel < 1e-4) return true;  // a turn on the spot: no direction to hold vision to
   return T_b0_b1_vision.translation().dot(wheels.dp / travel) <= travel + sp;  // went no farther
+}
+
+// Whether vision's motion differs from the wheels' beyond their tolerance.
+bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
+  const WheelTolerance tol(wheels);
+  return (wheels.dp - T_b0_b1_vision.translation()).norm() > tol.translation ||
+         std::fabs(wheels.dphi - T_b0_b1_vision.angle()) > tol.rotation;
 }
 
 // One worker thread running tasks in the order given; submit() returns the result's future
@@ -109,15 +123,6 @@ class TaskQueue {
   bool stop_ = false;
   std::thread thread_;
 };
-
-// Whether vision's motion differs from the wheels' beyond their 3 sigma + 5 mm / 5 mrad.
-bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
-  const Eigen::Matrix3d& S = wheels.covariance;
-  const double sp = 3.0 * std::sqrt(S(0, 0) + S(1, 1)) + 0.005;
-  const double sphi = 3.0 * std::sqrt(S(2, 2)) + 0.005;
-  return (wheels.dp - T_b0_b1_vision.translation()).norm() > sp ||
-         std::fabs(wheels.dphi - T_b0_b1_vision.angle()) > sphi;
-}
 
 struct KeyFrame {
   std::uint64_t id = 0;

@@ -12,8 +12,8 @@
 namespace rvwo::estimator {
 
 struct FeatureParams {
-  int features = 1000;        // per image
-  double scale_factor = 1.2;  // pyramid scale between levels
+  int features = 1000;               // per image
+  double scale_factor = 1.2;         // pyramid scale between levels
   int levels = 6;                    // (Estimator.Levels: why six, in options.h)
   int fast_threshold = 12;           // grey levels
   int grid_cols = 8, grid_rows = 6;  // features are shared out over these cells by FAST response
