@@ -466,9 +466,12 @@ int main(int argc, char** argv) {
         "  frames %zu over %.1f s, keyframes %zu, map points made %zu (rejected by the kernel: %zu), segmented "
         "keyframes %zu\n",
         rep.frames, seq_s, rep.keyframes, rep.map_points_created, rep.map_points_rejected, rep.segmented_keyframes);
-    if (rawlog_labels && rawlog_labels->failures().first > 0)
-      std::printf("  label images that could not be read: %zu (their keyframes went unlabelled; first: %s)\n",
-                  rawlog_labels->failures().first, rawlog_labels->failures().second.c_str());
+    if (rawlog_labels) {
+      const auto [failed, first] = rawlog_labels->failures();
+      if (failed > 0)
+        std::printf("  label images that could not be read: %zu (their keyframes went unlabelled; first: %s)\n", failed,
+                    first.c_str());
+    }
     std::printf("  frames on wheels only: %zu", rep.wheel_only_frames);
     for (std::size_t i = 0; i < rep.wheel_only_intervals.size() && i < 8; ++i) {
       std::printf("%s%.2f-%.2f s", i ? ", " : " (", rep.wheel_only_intervals[i].first - first_t,

@@ -262,8 +262,9 @@ struct Estimator::Impl {
     std::future<FrontEnd> front_end;  // not valid: made when tracked (deterministic, wheel mode)
   };
   std::deque<PendingFrame> pending;
-  // The front end runs one frame ahead of tracking in a thread of its own (not deterministic):
-  // while tracking matches and optimises frame k, frame k+1's features are being extracted.
+  // The front end runs one frame ahead of tracking in a thread of its own (not deterministic, no
+  // images in wheel mode): while tracking matches and optimises frame k, frame k+1's features are
+  // being extracted.
   std::unique_ptr<TaskQueue> front_end_queue;
   double last_t = -1;  // of the last processed frame
   SE2 last_pose;       // its T_w_b (absolute, refreshed from its reference keyframe)
@@ -306,7 +307,7 @@ struct Estimator::Impl {
     if (segmenter && !opt.deterministic) async = std::make_unique<AsyncSegmenter>(segmenter, 4, 256);
     dynamic_labels = opt.priors.dynamicLabels();
     if (!opt.deterministic) mapper = std::thread([this] { mappingLoop(); });
-    if (!opt.deterministic) front_end_queue = std::make_unique<TaskQueue>();
+    if (!opt.deterministic && opt.mode != Mode::kWheel) front_end_queue = std::make_unique<TaskQueue>();
   }
 
   ~Impl() { stopMapper(); }
@@ -642,6 +643,8 @@ struct Estimator::Impl {
     std::vector<char> inlier;
     std::vector<double> errors;
     int inliers = 0;
+    const bool was_slipping = slipping;
+    slipping = false;  // until this frame says otherwise (a frame without matches ends a slip)
     if (!matches.empty()) {
       inliers = optimisePose(f, matches, prior, last_pose.vector(), &x, &inlier, &errors);
       // Slip check: the wheels' motion against vision alone. When the wheels spin in place (or
@@ -652,8 +655,6 @@ struct Estimator::Impl {
       // Once slipping, vision alone stays in charge while the wheels go on claiming motion it does
       // not see and it explains no fewer matches: decided afresh each frame, the wheel prior pulled
       // the pose a little every frame until vision alone won again, a sawtooth of up to 0.4 m.
-      const bool was_slipping = slipping;
-      slipping = false;
       if (prior && (was_slipping || static_cast<double>(matches.size()) > 1.3 * inliers + 10)) {
         Eigen::Vector3d x_vision = last_pose.vector();
         std::vector<char> inlier_v;
@@ -1362,7 +1363,7 @@ struct Estimator::Impl {
     // that straddle it), for at most a second of frames.
     // With a front end running ahead, a frame is also held until the next one has come, so that
     // the next one's features are made while this one is tracked (a frame's latency more).
-    const std::size_t lookahead = front_end_queue && opt.mode != Mode::kWheel ? 1 : 0;
+    const std::size_t lookahead = front_end_queue ? 1 : 0;
     while (pending.size() > (all ? 0 : lookahead)) {
       const double t = pending.front().in.timestamp;
       bool ready = all || opt.mode == Mode::kVo || pending.size() > static_cast<std::size_t>(rig.fps) + 1;
@@ -1446,7 +1447,7 @@ void Estimator::addFrame(const FrameInput& frame) {
   }
   s.added_t = frame.timestamp;
   Impl::PendingFrame p{frame, {}};
-  if (s.front_end_queue && s.opt.mode != Mode::kWheel) {
+  if (s.front_end_queue) {
     p.front_end = s.front_end_queue->submit<Impl::FrontEnd>([&s, frame] { return s.frontEnd(frame); });
   }
   s.pending.push_back(std::move(p));
