@@ -128,13 +128,13 @@ TEST(Replay, DynamicAdaptiveKernelBeatsHuber) {
   EXPECT_EQ(adaptive.poses, lines(dir / "groundtruth.txt"));
   show("dynamic vw huber", huber);
   show("dynamic vw adaptive", adaptive);
-  // The ratio. Measured on this 30 s cut: adaptive 0.0631 m (1.16 %), Huber 0.0981 m: 0.64.
-  // (The cut's hard part: at 8.6 s, after a stretch on the wheels, walkers fill 73 % of the view
-  // and pull the map 0.14 rad before three labels each reject them; a 20 s cut is mostly that
-  // stretch, and its ratio moved from 0.65 to 0.71 with the pyramid's levels. On the whole 90 s
-  // scenario adaptive is at 0.13 %, 0.38 x Huber.)
+  // The ratio and bound. Measured on this 30 s cut: adaptive 0.0039 m (0.071 %), Huber
+  // 0.0069 m: 0.56. (The cut's hard part: at 8.6 s walkers fill 73 % of the view. Until vision
+  // counted only landmarks no label calls dynamic, their freshly mapped points kept tracking
+  // 'visual' and pulled the map 0.14 rad before three labels each rejected them: adaptive 1.16 %,
+  // Huber 1.80 %; now those frames follow the wheels.)
   EXPECT_LE(adaptive.ate, 0.7 * huber.ate) << "adaptive " << adaptive.ate << ", huber " << huber.ate;
-  EXPECT_LE(adaptive.ate, 0.015 * adaptive.path);
+  EXPECT_LE(adaptive.ate, 0.005 * adaptive.path);
   // Walkers are no slip: vision alone, pulled by them, must not overrule the wheels (before the
   // slip test asked how vision alone moved, it did so on 56 frames of the 90 s scenario, with
   // steps of up to 35 cm).
@@ -152,11 +152,38 @@ TEST(Replay, SlipVisionHalvesTheWheelError) {
   ASSERT_EQ(vw.status, 0) << vw.err;
   show("slip wheel", wheel);
   show("slip vw", vw);
-  // Measured 0.56 % of this cut's 4.2 m path, the wheels 2.8 % (the slip is 2 s of it).
+  // Measured 0.086 % of this cut's 4.2 m path, the wheels 2.8 % (the slip is 2 s of it).
   EXPECT_LE(vw.ate, 0.3 * wheel.ate) << "vw " << vw.ate << ", wheel " << wheel.ate;
-  EXPECT_LE(vw.ate, 0.01 * vw.path);
+  EXPECT_LE(vw.ate, 0.005 * vw.path);
   // Tracking caught the slip (vision overruled the wheels on some frames).
   EXPECT_EQ(vw.out.find("frames where vision overruled the wheels (a slip): 0;"), std::string::npos) << vw.out;
+  fs::remove_all(dir);
+}
+
+// The combined scenario's first 40 s: walkers, a blackout, and the wheels spinning while the robot
+// stands (20-22 s) in the middle of a turn on the spot, so that the wheels claim a turn and no
+// travel. The wheels' calibration, refined by local BA, must not take the slip (nor the walkers)
+// for a scale error: before the BA judged slips with the calibration it had before (and kept it
+// fixed where the wheels disagree with the window), the turn scale went from 0.98 to 0.61 in a
+// sequence without walkers, and this cut ended at 0.80 % of its path (0.054 % after).
+TEST(Replay, SpinOnTheSpotSlipAndWalkersLeaveTheCalibration) {
+  const fs::path dir = simulate("combined", 40);
+  const Outcome vw = replay(dir, "", "vw");
+  ASSERT_EQ(vw.status, 0) << vw.err;
+  EXPECT_EQ(vw.poses, lines(dir / "groundtruth.txt"));
+  show("combined 40 s vw", vw);
+  EXPECT_LE(vw.ate, 0.003 * vw.path) << vw.out;
+  EXPECT_LE(vw.max_step, 0.05);
+  EXPECT_EQ(vw.out.find("frames where vision overruled the wheels (a slip): 0;"), std::string::npos) << vw.out;
+  const std::size_t at = vw.out.find("wheel calibration (estimated): ");
+  ASSERT_NE(at, std::string::npos) << vw.out;
+  double distance = 0, turn = 0, curvature = 0;
+  ASSERT_EQ(std::sscanf(vw.out.c_str() + at, "wheel calibration (estimated): distance x%lf, turn x%lf, curvature %lf",
+                        &distance, &turn, &curvature),
+            3);
+  EXPECT_NEAR(turn, 0.98, 0.01);
+  EXPECT_NEAR(curvature, -0.05, 0.015);
+  EXPECT_NEAR(distance, 1.0, 0.01);
   fs::remove_all(dir);
 }
 
