@@ -480,8 +480,10 @@ int main(int argc, char** argv) {
     if (rep.wheel_only_intervals.size() > 8) std::printf(", ... %zu stretches", rep.wheel_only_intervals.size());
     std::printf("%s\n", rep.wheel_only_intervals.empty() ? "" : ")");
     if (opt.mode == rvwo::estimator::Mode::kVw) {
-      std::printf("  frames where vision overruled the wheels (a slip): %zu; wheel edges local BA found wrong: %zu\n",
-                  rep.slip_frames, rep.wheel_edge_outliers);
+      std::printf(
+          "  frames where vision overruled the wheels (a slip): %zu; wheel edges local BA found wrong: %zu; "
+          "relocalised: %zu\n",
+          rep.slip_frames, rep.wheel_edge_outliers, rep.relocalisations);
       if (opt.calibrate) {
         const rvwo::WheelCalibration& c = rep.wheel_calibration;
         std::printf("  wheel calibration (estimated): distance x%.4f, turn x%.4f, curvature %+.4f rad/m\n", 1 + c.x(),

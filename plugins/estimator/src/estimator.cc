@@ -39,8 +39,10 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 constexpr double kChi2Mono = 5.991, kChi2Stereo = 7.815;
 // A wheel edge's gate (3 DoF, 99.9 %).
 constexpr double kChi2WheelOutlier = 16.27;
-// Blind frames this soon after a slip keep vision's last motion instead of the wheels' (s).
-constexpr double kSlipHold = 0.5;
+// Blind frames this soon after a slip keep vision's last motion instead of the wheels' (s): a
+// walker passing close in front during a slip blinded tracking for 1.5 s, and the wheels, still
+// spinning, took the pose 0.4 rad off (0.5 s of hold: 0.74 % of the path; 2 s: 0.11 %).
+constexpr double kSlipHold = 2.0;
 // Mono: new points are triangulated between a keyframe and this many keyframes before it.
 constexpr int kTriangulationNeighbours = 5;
 
@@ -475,6 +477,74 @@ struct Estimator::Impl {
     return matches;
   }
 
+  // Relocalisation against the map in memory (stereo and RGB-D), when the projection search
+  // finds nothing: after a blind stretch the wheels' prediction may be far off (a slip while a
+  // walker covered the view left it 0.6 rad off, and the map was started anew from there). Each
+  // feature with depth is matched by descriptor with the trusted landmarks (Hamming <= 50, clearly
+  // better than the second best, at the same height within 0.2 m: the robot stays on its floor);
+  // two pairs fix an SE(2) pose from their ground-plane positions (RANSAC, a fixed seed); the best
+  // pose, if 3 x Estimator.MinInliers pairs agree with it, seeds the projection search and the pose
+  // optimisation. (Map lock held.)
+  std::optional<Eigen::Vector3d> relocalise(const Features& f) {
+    if (rig.sensor == Sensor::kMono) return std::nullopt;
+    const std::size_t enough = 3 * static_cast<std::size_t>(opt.min_inliers);
+    std::vector<std::uint64_t> ids;
+    cv::Mat map_descriptors;
+    for (const auto& [id, p] : points) {
+      if (!isTrusted(id) || rejected(kernelAlpha(id))) continue;
+      ids.push_back(id);
+      map_descriptors.push_back(p.descriptor);
+    }
+    std::vector<int> with_depth;
+    cv::Mat frame_descriptors;
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      if (f.depth[i] <= 0) continue;
+      with_depth.push_back(static_cast<int>(i));
+      frame_descriptors.push_back(f.descriptors.row(static_cast<int>(i)));
+    }
+    if (ids.size() < enough || with_depth.size() < enough) return std::nullopt;
+    std::vector<std::vector<cv::DMatch>> knn;
+    cv::BFMatcher(cv::NORM_HAMMING).knnMatch(frame_descriptors, map_descriptors, knn, 2);
+    struct Pair {
+      Eigen::Vector2d p_b, q_w;  // the feature in the robot's frame, its landmark in the world's
+      double tolerance;          // m: stereo depth grows less sure with distance
+    };
+    std::vector<Pair> pairs;
+    for (std::size_t k = 0; k < knn.size(); ++k) {
+      if (knn[k].empty() || knn[k][0].distance > 50) continue;
+      if (knn[k].size() > 1 && knn[k][0].distance > 0.8f * knn[k][1].distance) continue;
+      const int i = with_depth[k];
+      const cv::KeyPoint& kp = f.keypoints[i];
+      const Eigen::Vector3d P_b = rig.T_b_c * (f.depth[i] * rig.camera->unproject(Eigen::Vector2d(kp.pt.x, kp.pt.y)));
+      const Eigen::Vector3d& P_w = points.at(ids[knn[k][0].trainIdx]).P;
+      if (std::fabs(P_b.z() - P_w.z()) > 0.2) continue;
+      pairs.push_back({P_b.head<2>(), P_w.head<2>(), 0.05 + 0.02 * f.depth[i]});
+    }
+    if (pairs.size() < enough) return std::nullopt;
+    std::uint64_t state = 0x9E3779B97F4A7C15ull;  // a fixed seed: the same frame, the same answer
+    auto draw = [&] {
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      return static_cast<std::size_t>(state >> 33) % pairs.size();
+    };
+    std::size_t best = 0;
+    SE2 T_best;
+    for (int it = 0; it < 300; ++it) {
+      const Pair &a = pairs[draw()], &b = pairs[draw()];
+      const Eigen::Vector2d dp = b.p_b - a.p_b, dq = b.q_w - a.q_w;
+      if (dp.norm() < 0.3 || std::fabs(dp.norm() - dq.norm()) > a.tolerance + b.tolerance) continue;
+      const double theta = std::atan2(dq.y(), dq.x()) - std::atan2(dp.y(), dp.x());
+      const SE2 T(a.q_w - rotation2(theta) * a.p_b, theta);
+      std::size_t agree = 0;
+      for (const Pair& p : pairs) agree += (T.act(p.p_b) - p.q_w).norm() < p.tolerance;
+      if (agree > best) {
+        best = agree;
+        T_best = T;
+      }
+    }
+    if (best < enough) return std::nullopt;
+    return T_best.vector();
+  }
+
   // Pose-only optimisation on SE(2): iteratively reweighted Gauss-Newton with each landmark's
   // kernel, in rounds (ORB-SLAM's): after each, residuals beyond the chi2 gate are outliers for
   // the next. prior: the wheel edge from the previous frame (fixed) to this one.
@@ -721,9 +791,25 @@ struct Estimator::Impl {
     // blackout carry few, poorly placed matches: one such frame put the pose 6 cm off).
     // Inliers count as vision only among landmarks no label has called dynamic: a walker close in
     // front fills the view with its own landmarks, and following them is following the walker.
-    int trusted_inliers = 0;
-    for (std::size_t k = 0; k < matches.size(); ++k) trusted_inliers += inlier[k] && isTrusted(matches[k].point);
-    const bool visual = trusted_inliers >= (last_visual ? 1 : 3) * opt.min_inliers;
+    auto trustedInliers = [&] {
+      int n = 0;
+      for (std::size_t k = 0; k < matches.size(); ++k) n += inlier[k] && isTrusted(matches[k].point);
+      return n;
+    };
+    bool visual = trustedInliers() >= (last_visual ? 1 : 3) * opt.min_inliers;
+    // Still blind after a stretch on the wheels: their prediction may be too far off for the
+    // projection search; the map in memory may still be in view.
+    if (!visual && !last_visual) {
+      auto t5 = Clock::now();
+      if (const std::optional<Eigen::Vector3d> x_map = relocalise(f)) {
+        x = *x_map;
+        matches = searchByProjection(f, x, 1.0);
+        inliers = optimisePose(f, matches, std::nullopt, x, &x, &inlier, &errors);
+        visual = trustedInliers() >= 3 * opt.min_inliers;
+        if (visual) ++counters.relocalisations;
+      }
+      timings.add("relocalise", msSince(t5));
+    }
     // Blind right after a slip, the wheels are the last to trust: the pose keeps vision's last
     // motion (for at most kSlipHold) and the wheel edges across it keep their Huber kernel.
     const bool after_slip = !visual && !slipping && t - last_slip_t <= kSlipHold;
