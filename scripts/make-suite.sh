@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
 # Generates RVWO's scenario suite (scenarios/*.yaml) with rvwo-sim into out/suite/<name>/:
-#   bash scripts/make-suite.sh [--seed N] [--camera stereo|rgbd|mono] [--duration S] [names...]
+#   bash scripts/make-suite.sh [--seed N] [--camera stereo|rgbd|mono] [--duration S] [--out DIR] [names...]
+# (DIR: default out/suite; another camera is best kept apart, e.g. --camera rgbd --out out/suite-rgbd)
 # Builds rvwo-sim first (running the set-up if needed). About 8 MB per simulated second of
 # stereo; the whole suite (570 s) is 4.3 GB and takes about 8 minutes on two cores.
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
-seed=1 extra=() names=()
+seed=1 extra=() names=() dest=out/suite
 while [ $# -gt 0 ]; do
   case "$1" in
     --seed) seed=$2; shift 2 ;;
     --camera|--duration) extra+=("$1" "$2"); shift 2 ;;
+    --out) dest=${2%/}; shift 2 ;;
     -*) echo "make-suite: unknown option $1" >&2; exit 2 ;;
     *) names+=("$1"); shift ;;
   esac
@@ -24,6 +26,6 @@ cmake --build build --target rvwo-sim
 for n in "${names[@]}"; do
   [ -f "scenarios/$n.yaml" ] || { echo "make-suite: no scenario scenarios/$n.yaml" >&2; exit 2; }
   echo "== $n"
-  ./build/apps/rvwo-sim --scenario "scenarios/$n.yaml" --out "out/suite/$n" --seed "$seed" "${extra[@]}"
+  ./build/apps/rvwo-sim --scenario "scenarios/$n.yaml" --out "$dest/$n" --seed "$seed" "${extra[@]}"
 done
-du -sh out/suite
+du -sh "$dest"

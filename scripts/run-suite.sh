@@ -1,27 +1,30 @@
 #!/usr/bin/env bash
 # Replays every sequence of the scenario suite (out/suite/<name>/, made by make-suite.sh) with
 # rvwo-replay in each mode and kernel, and prints the table: ATE RMSE (se3), % of the path, speed.
-#   bash scripts/run-suite.sh [--deterministic] [names...]
-# Trajectories, reports and plots go to out/suite-runs/<name>/<mode>-<kernel>.{txt,log,png}.
+#   bash scripts/run-suite.sh [--deterministic] [--suite DIR] [names...]
+# DIR: where the sequences are (default out/suite; e.g. out/suite-rgbd made with make-suite.sh
+# --camera rgbd --out out/suite-rgbd). Trajectories, reports and plots go to
+# DIR-runs/<name>/<mode>-<kernel>.{txt,log,png} (out/suite-runs/... by default).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
-flags=() names=()
+flags=() names=() suite=out/suite
 while [ $# -gt 0 ]; do
   case "$1" in
     --deterministic) flags+=("$1"); shift ;;
+    --suite) suite=${2%/}; shift 2 ;;
     -*) echo "run-suite: unknown option $1" >&2; exit 2 ;;
     *) names+=("$1"); shift ;;
   esac
 done
 if [ ${#names[@]} -eq 0 ]; then
-  for d in out/suite/*/; do [ -f "$d/sequence.rawlog" ] && names+=("$(basename "$d")"); done
+  for d in "$suite"/*/; do [ -f "$d/sequence.rawlog" ] && names+=("$(basename "$d")"); done
 fi
-[ ${#names[@]} -gt 0 ] || { echo "run-suite: no sequences in out/suite (bash scripts/make-suite.sh makes them)" >&2; exit 2; }
+[ ${#names[@]} -gt 0 ] || { echo "run-suite: no sequences in $suite (bash scripts/make-suite.sh makes them)" >&2; exit 2; }
 cmake --build build --target rvwo-replay >/dev/null
 printf '%-12s %-16s %10s %8s %10s %8s\n' scenario run "ATE [m]" "% path" "x realtime" "wheels"
 for n in "${names[@]}"; do
-  seq="out/suite/$n" out="out/suite-runs/$n"
+  seq="$suite/$n" out="$suite-runs/$n"
   mkdir -p "$out"
   for run in wheel vo:huber vw:huber vw:adaptive; do
     mode=${run%%:*} kernel=${run#*:}
