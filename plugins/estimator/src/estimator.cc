@@ -351,6 +351,11 @@ struct Estimator::Impl {
     const std::optional<LandmarkReliability> r = reliability.get(point);
     return !r || r->ps < 0.1;
   }
+  std::vector<char> trustedOf(const std::vector<Match>& matches) const {
+    std::vector<char> trusted(matches.size());
+    for (std::size_t k = 0; k < matches.size(); ++k) trusted[k] = isTrusted(matches[k].point);
+    return trusted;
+  }
 
   // A landmark the adaptive (or a fixed alpha = -inf) kernel rejects: its edges leave the problem.
   bool rejected(double alpha) const { return opt.kernel != KernelChoice::kHuber && alpha == -BarronKernel::kInfinity; }
@@ -727,6 +732,14 @@ struct Estimator::Impl {
     int inliers = 0;
     const bool was_slipping = slipping;
     slipping = false;  // until this frame says otherwise (a frame without matches ends a slip)
+    // Vision counts only landmarks no label has called dynamic (in the slip test and for a visual
+    // frame): a walker close in front fills the view with its own landmarks.
+    std::vector<char> trusted = trustedOf(matches);
+    auto countTrusted = [&](const std::vector<char>& in) {
+      int n = 0;
+      for (std::size_t k = 0; k < in.size(); ++k) n += in[k] && trusted[k];
+      return n;
+    };
     if (!matches.empty()) {
       inliers = optimisePose(f, matches, prior, last_pose.vector(), &x, &inlier, &errors);
       // Slip check: the wheels' motion against vision alone. When the wheels spin in place (or
@@ -750,15 +763,8 @@ struct Estimator::Impl {
         // ... by most of the matches, counting only landmarks no label has called dynamic (a
         // walker close by, freshly mapped, once explained 376 of 422 matches and took vision alone
         // 25 cm off in four frames), and in the way a slip would.
-        std::vector<char> trusted(matches.size());
-        for (std::size_t k = 0; k < matches.size(); ++k) trusted[k] = isTrusted(matches[k].point);
         const int n_trusted = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
-        auto count = [&](const std::vector<char>& in) {
-          int n = 0;
-          for (std::size_t k = 0; k < in.size(); ++k) n += in[k] && trusted[k];
-          return n;
-        };
-        const int trusted_f = count(inlier), trusted_v = count(inlier_v);
+        const int trusted_f = countTrusted(inlier), trusted_v = countTrusted(inlier_v);
         // Vision alone explains clearly more; or, with the wheel edge beyond its 99.9 % gate at the
         // fused pose (a strained compromise), noticeably more, or more while both the fused and
         // vision's motions lie beyond the wheels' tolerance. A slow skid (3 mm a frame) and a slow
@@ -792,14 +798,8 @@ struct Estimator::Impl {
     timings.add("pose", msSince(t3));
     // Coming back from the wheels, vision must be convincingly back (the first frames after a
     // blackout carry few, poorly placed matches: one such frame put the pose 6 cm off).
-    // Inliers count as vision only among landmarks no label has called dynamic: a walker close in
-    // front fills the view with its own landmarks, and following them is following the walker.
-    auto trustedInliers = [&] {
-      int n = 0;
-      for (std::size_t k = 0; k < matches.size(); ++k) n += inlier[k] && isTrusted(matches[k].point);
-      return n;
-    };
-    bool visual = trustedInliers() >= (last_visual ? 1 : 3) * opt.min_inliers;
+    // (Trusted inliers only: following a walker's landmarks is following the walker.)
+    bool visual = countTrusted(inlier) >= (last_visual ? 1 : 3) * opt.min_inliers;
     // Still blind after a stretch on the wheels: their prediction may be too far off for the
     // projection search; the map in memory may still be in view.
     if (!visual && !last_visual) {
@@ -808,7 +808,8 @@ struct Estimator::Impl {
         x = *x_map;
         matches = searchByProjection(f, x, 1.0);
         inliers = optimisePose(f, matches, std::nullopt, x, &x, &inlier, &errors);
-        visual = trustedInliers() >= 3 * opt.min_inliers;
+        trusted = trustedOf(matches);
+        visual = countTrusted(inlier) >= 3 * opt.min_inliers;
         if (visual) ++counters.relocalisations;
       }
       timings.add("relocalise", msSince(t5));
@@ -1336,9 +1337,8 @@ struct Estimator::Impl {
     struct WheelSpan {
       ceres::ResidualBlockId block;
       std::size_t a, b;
-      Eigen::Vector3d delta;      // (dp, dphi) the wheels measured, with the calibration before this BA
-      Eigen::Matrix3d sqrt_info;  // of the edge
-      bool slipped;               // across a slip tracking caught (Huber, no calibration)
+      WheelEdge edge;  // what the wheels measured, integrated with the calibration before this BA
+      bool slipped;    // across a slip tracking caught (Huber, no calibration)
     };
     std::vector<WheelSpan> wheel_edges;
     if (opt.mode == Mode::kVw) {
@@ -1367,7 +1367,7 @@ struct Estimator::Impl {
                   ? problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(edge), wheel_loss, x[a].data(),
                                              x[b].data(), c.data())
                   : problem.AddResidualBlock(new ceres_adapters::WheelCost(edge), wheel_loss, x[a].data(), x[b].data());
-          wheel_edges.push_back({block, a, b, d->at(c), edge.sqrtInformation(), slipped});
+          wheel_edges.push_back({block, a, b, edge, slipped});
         } catch (const std::invalid_argument&) {
         }
       }
@@ -1405,12 +1405,12 @@ struct Estimator::Impl {
       // may have moved c to explain the slip away.
       bool slip_found = false;
       for (const WheelSpan& w : wheel_edges) {
-        const Eigen::Vector2d p_ij = rotation2(x[w.a].z()).transpose() * (x[w.b].head<2>() - x[w.a].head<2>());
-        const double phi_ij = wrapAngle(x[w.b].z() - x[w.a].z());
-        const Eigen::Vector2d dp = w.delta.head<2>(), miss = dp - p_ij;
-        const double dphi = w.delta.z(), turn_miss = wrapAngle(dphi - phi_ij);
-        const Eigen::Vector3d r(-miss.x(), -miss.y(), -turn_miss);
-        if ((w.sqrt_info * r).squaredNorm() <= kChi2WheelOutlier) continue;
+        // The residual is what the keyframes made less what the wheels claimed: minus the miss.
+        const Eigen::Vector3d r = w.edge.residual(x[w.a], x[w.b]);
+        if ((w.edge.sqrtInformation() * r).squaredNorm() <= kChi2WheelOutlier) continue;
+        const Eigen::Vector2d& dp = w.edge.delta().dp;
+        const Eigen::Vector2d miss = -r.head<2>();
+        const double dphi = w.edge.delta().dphi, turn_miss = -r.z();
         const double along = dp.norm() < 0.02 ? 0.0 : miss.dot(dp.normalized());
         const bool travel_slip = along > 0.3 * dp.norm() && along * along > 0.6 * miss.squaredNorm();
         const bool turn_slip =
