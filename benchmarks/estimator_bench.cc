@@ -51,12 +51,11 @@ void BM_MatchStereo(benchmark::State& state) {
   const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -12, 0, 1, 0);
   cv::warpAffine(left, right, shift, left.size());
   const rvwo::estimator::FeatureExtractor extractor{rvwo::estimator::FeatureParams{}};
-  const rvwo::estimator::Features fr = extractor.extract(right);
   const rvwo::estimator::Features fl0 = extractor.extract(left);
   int matched = 0;
   for (auto _ : state) {
     rvwo::estimator::Features fl = fl0;
-    rvwo::estimator::matchStereo(left, right, fr, 48.0, 0.5, 240, &fl);
+    rvwo::estimator::matchStereo(left, right, 48.0, 0.5, 240, &fl);
     matched = static_cast<int>(std::count_if(fl.depth.begin(), fl.depth.end(), [](float d) { return d > 0; }));
   }
   state.counters["matched"] = matched;

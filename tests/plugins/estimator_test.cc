@@ -57,9 +57,8 @@ TEST(Features, StereoDepthFromAKnownSubPixelDisparity) {
     cv::warpAffine(left, right, shift, left.size(), cv::INTER_LINEAR);
     const FeatureExtractor ex{FeatureParams{}};
     Features fl = ex.extract(left);
-    const Features fr = ex.extract(right);
     const double bf = 48.0;
-    matchStereo(left, right, fr, bf, 0.5, 200, &fl);
+    matchStereo(left, right, bf, 0.5, 200, &fl);
     std::vector<double> err;
     for (std::size_t i = 0; i < fl.size(); ++i) {
       if (fl.depth[i] <= 0 || fl.keypoints[i].pt.x < d + 10) continue;
@@ -70,6 +69,55 @@ TEST(Features, StereoDepthFromAKnownSubPixelDisparity) {
     std::sort(err.begin(), err.end());
     EXPECT_LT(err[err.size() / 2], 0.15) << "median disparity error, disparity " << d;  // sub-pixel
     EXPECT_LT(err[err.size() * 95 / 100], 0.6) << "95th percentile, disparity " << d;
+  }
+}
+
+// The row scan has no right-image features to lean on: where the row repeats itself (tiles, a
+// fence) or the left patch is hidden in the right image, it must give no depth rather than a
+// wrong one. Left: textured on the left half; on the right half, rows of identical squares every
+// 9 to 17 px in the upper band and, in the lower band, a texture the right image does not share.
+TEST(Features, StereoGivesNoDepthToRepeatedOrHiddenPatches) {
+  constexpr double kDisparity = 10.4, kBf = 48.0;
+  for (int period = 9; period <= 17; period += 2) {
+    SCOPED_TRACE("period " + std::to_string(period) + " px");
+    cv::Mat left = texture(3);
+    cv::Rect tiles(320, 0, 320, 240), hidden(320, 240, 320, 240);
+    left(tiles).setTo(cv::Scalar(40));
+    for (int y = 4; y + 6 < tiles.height; y += period) {
+      for (int x = 2; x + 6 < tiles.width; x += period) {
+        cv::rectangle(left, cv::Rect(tiles.x + x, y, 6, 6), cv::Scalar(210), cv::FILLED);
+      }
+    }
+    cv::Mat right;
+    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -kDisparity, 0, 1, 0);
+    cv::warpAffine(left, right, shift, left.size(), cv::INTER_LINEAR);
+    texture(4)(hidden).copyTo(right(hidden));  // what the left camera sees there, the right does not
+    const FeatureExtractor ex{FeatureParams{}};
+    Features f = ex.extract(left);
+    matchStereo(left, right, kBf, 0.5, 200, &f);
+    int in_tiles = 0, in_hidden = 0, in_texture = 0, depth_tiles = 0, depth_hidden = 0, good_texture = 0;
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      const cv::Point2f& p = f.keypoints[i].pt;
+      const bool has = f.depth[i] > 0;
+      // Patches that straddle a region's edge see both: left out of the count.
+      const int margin = 25;
+      if (p.x > tiles.x + margin && p.y < tiles.height - margin) {
+        ++in_tiles;
+        depth_tiles += has;
+      } else if (p.x > hidden.x + margin && p.y > hidden.y + margin) {
+        ++in_hidden;
+        depth_hidden += has;
+      } else if (p.x < tiles.x - margin && p.x > kDisparity + margin) {
+        ++in_texture;
+        good_texture += has && std::fabs(p.x - f.u_right[i] - kDisparity) < 0.5;
+      }
+    }
+    ASSERT_GT(in_tiles, 50);
+    ASSERT_GT(in_hidden, 50);
+    ASSERT_GT(in_texture, 200);
+    EXPECT_EQ(depth_tiles, 0) << "of " << in_tiles << " keypoints on the repeated squares";
+    EXPECT_LE(depth_hidden, in_hidden / 20) << "of " << in_hidden << " keypoints the right camera cannot see";
+    EXPECT_GE(good_texture, 0.8 * in_texture) << "of " << in_texture << " keypoints on plain texture";
   }
 }
 

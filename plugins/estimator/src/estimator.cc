@@ -648,13 +648,10 @@ struct Estimator::Impl {
       rig.rectification->rectify(raw_grey, raw_right, &grey, &grey_right);
     }
     if (rig.sensor == Sensor::kStereo) {
-      Features right;
-      std::thread worker([&] { right = extractor.extract(grey_right); });
       f = extractor.extract(grey);
-      worker.join();
       timings.add("features", msSince(t0));
       auto t1 = Clock::now();
-      matchStereo(grey, grey_right, right, rig.bf(), 0.5, rig.bf() / 0.2, &f);
+      matchStereo(grey, grey_right, rig.bf(), 0.5, rig.bf() / 0.2, &f);
       timings.add("stereo", msSince(t1));
     } else {
       f = extractor.extract(grey);

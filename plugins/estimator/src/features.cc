@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <numeric>
 #include <opencv2/core/hal/hal.hpp>
 
@@ -109,50 +111,107 @@ int patchSad(const cv::Mat& left, const cv::Mat& right, int ul, int ur, int v, i
   return sad;
 }
 
+constexpr int kScanHalf = 5;  // px: the row scan's patch is 11x11
+constexpr int kBlock = 16;    // positions summed at once: a fixed count the compiler vectorises
+// The best column must beat every other (away from its own slope) by this factor: repeated
+// texture along the row (a fence, tiles) matches anywhere and is left without depth.
+constexpr double kUniqueness = 0.8;
+
+// SAD of the left patch at (x, y) with the right patch at every column xr in [x0, x0 + n), into
+// sad[0, n). Sixteen positions at a time, summed in a local block over the whole patch: the
+// compiler keeps it in registers and vectorises the fixed-length inner loop (a store through
+// sad, which a uchar pointer may alias, would stop it). 121 x 255 fits in 16 bits.
+void scanRow(const cv::Mat& left, const cv::Mat& right, int x, int y, int x0, int n, std::uint16_t* sad) {
+  const int h = kScanHalf;
+  for (int p = 0; p < n; p += kBlock) {
+    std::uint16_t acc[kBlock] = {};
+    const int m = std::min(kBlock, n - p);
+    for (int dy = -h; dy <= h; ++dy) {
+      const uchar* a = left.ptr<uchar>(y + dy) + x - h;
+      const uchar* b = right.ptr<uchar>(y + dy) + x0 + p - h;
+      if (m == kBlock) {
+        for (int dx = 0; dx <= 2 * h; ++dx) {
+          const int av = a[dx];
+          for (int k = 0; k < kBlock; ++k) acc[k] += static_cast<std::uint16_t>(std::abs(av - int(b[dx + k])));
+        }
+      } else {  // the row's last, partial block: never read past the image's row
+        for (int dx = 0; dx <= 2 * h; ++dx) {
+          for (int k = 0; k < m; ++k) acc[k] += static_cast<std::uint16_t>(std::abs(int(a[dx]) - int(b[dx + k])));
+        }
+      }
+    }
+    std::copy(acc, acc + m, sad + p);
+  }
+}
+
 }  // namespace
 
-void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, const Features& right, double bf,
-                 double min_disparity, double max_disparity, Features* left) {
-  // Right keypoints by image row, for the row-band search.
-  const int rows = left_image.rows;
-  std::vector<std::vector<int>> by_row(rows);
-  for (std::size_t j = 0; j < right.keypoints.size(); ++j) {
-    const cv::KeyPoint& k = right.keypoints[j];
-    const float band = 2.0f * std::pow(1.2f, static_cast<float>(k.octave));
-    const int r0 = std::max(0, static_cast<int>(std::floor(k.pt.y - band)));
-    const int r1 = std::min(rows - 1, static_cast<int>(std::ceil(k.pt.y + band)));
-    for (int r = r0; r <= r1; ++r) by_row[r].push_back(static_cast<int>(j));
-  }
-  constexpr int kMaxDistance = 60;
-  for (std::size_t i = 0; i < left->keypoints.size(); ++i) {
+void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, double bf, double min_disparity,
+                 double max_disparity, Features* left) {
+  const std::size_t n_kp = left->keypoints.size();
+  if (n_kp == 0) return;
+  // 1. Coarse: the column of smallest SAD along the row, in the full image for every keypoint.
+  // (At a coarse keypoint's own pyramid level the scan would be shorter, but resampling puts each
+  // copy of a repeated pattern at its own phase, so a wrong copy can win there by a factor of three
+  // and the uniqueness test below would pass it.)
+  constexpr int kUnmatched = -1;
+  std::vector<double> coarse(n_kp, kUnmatched);  // px: the right column
+  std::vector<int> best_sad(n_kp, 0);
+  std::vector<std::uint16_t> sad(static_cast<std::size_t>(right_image.cols) + kBlock);
+  const int h = kScanHalf;
+  for (std::size_t i = 0; i < n_kp; ++i) {
     const cv::KeyPoint& kl = left->keypoints[i];
-    const int row = std::clamp(static_cast<int>(std::lround(kl.pt.y)), 0, rows - 1);
-    BestTwo match{kMaxDistance + 1};
-    for (int j : by_row[row]) {
-      const cv::KeyPoint& kr = right.keypoints[j];
-      if (std::abs(kr.octave - kl.octave) > 1) continue;
-      const double d = kl.pt.x - kr.pt.x;
-      if (d < min_disparity || d > max_disparity) continue;
-      match.offer(hammingDistance(left->descriptors.row(static_cast<int>(i)), right.descriptors.row(j)), j);
+    const int x = static_cast<int>(std::lround(kl.pt.x)), y = static_cast<int>(std::lround(kl.pt.y));
+    if (y < h || y >= left_image.rows - h || x < h || x >= left_image.cols - h) continue;
+    const int lo = std::max(h, static_cast<int>(std::ceil(x - max_disparity)));
+    const int hi = std::min(right_image.cols - 1 - h, static_cast<int>(std::floor(x - min_disparity)));
+    const int n = hi - lo + 1;
+    if (n < 3) continue;
+    scanRow(left_image, right_image, x, y, lo, n, sad.data());
+    const int m = static_cast<int>(std::min_element(sad.begin(), sad.begin() + n) - sad.begin());
+    // Unique: no other column, away from the minimum's own slope (+-2 px), comes close to it.
+    int second = std::numeric_limits<int>::max();
+    for (int p = 0; p < n; ++p) {
+      if (std::abs(p - m) > 2) second = std::min(second, static_cast<int>(sad[p]));
     }
-    if (match.index < 0 || match.best > 0.9 * match.second) continue;
-    const int best_j = match.index;
-    // Sub-pixel: SAD of patches along the row, +-3 px around the match, then a parabola. The
-    // patch grows with the keypoint's level (3 px half-width at level 0): a coarse corner's
-    // position is only known to its level's pixel, and a small patch there may see flat grey.
-    const int h = 3 + kl.octave;
-    const int ul = static_cast<int>(std::lround(kl.pt.x)), v = row;
-    const int ur0 = static_cast<int>(std::lround(right.keypoints[best_j].pt.x));
-    double ur = right.keypoints[best_j].pt.x;
-    if (v >= h && v < rows - h && ul >= h && ul < left_image.cols - h && ur0 - 4 >= h &&
-        ur0 + 4 < right_image.cols - h) {
-      int sad[9];
-      for (int k = -4; k <= 4; ++k) sad[k + 4] = patchSad(left_image, right_image, ul, ur0 + k, v, h);
+    if (sad[m] >= kUniqueness * second) continue;
+    best_sad[i] = sad[m];
+    // The keypoint sits (pt.x - x) px off the patch centre; the right one as far off its column.
+    coarse[i] = lo + m + (kl.pt.x - x);
+  }
+
+  // 2. Outliers: a best SAD far above the frame's typical one is an occlusion or a wrong match
+  // (ORB-SLAM's 1.5 x 1.4 x median rule on the refined distance), but never below image noise
+  // (3 grey levels a pixel): a noiseless pair's median is 0.
+  std::vector<int> sads;
+  for (std::size_t i = 0; i < n_kp; ++i) {
+    if (coarse[i] != kUnmatched) sads.push_back(best_sad[i]);
+  }
+  if (sads.empty()) return;
+  std::nth_element(sads.begin(), sads.begin() + sads.size() / 2, sads.end());
+  const double max_sad = std::max(2.1 * sads[sads.size() / 2], 3.0 * (2 * h + 1) * (2 * h + 1));
+
+  // 3. Sub-pixel: SAD of patches along the row, +-4 px around the coarse column, then
+  // a parabola. The patch grows with the keypoint's level (3 px half-width at level 0): a coarse
+  // corner's position is only known to its level's pixel, and a small patch there may see flat
+  // grey.
+  const int rows = left_image.rows;
+  for (std::size_t i = 0; i < n_kp; ++i) {
+    if (coarse[i] == kUnmatched || best_sad[i] > max_sad) continue;
+    const cv::KeyPoint& kl = left->keypoints[i];
+    const int hr = 3 + std::max(0, kl.octave);
+    const int ul = static_cast<int>(std::lround(kl.pt.x)), v = static_cast<int>(std::lround(kl.pt.y));
+    const int ur0 = static_cast<int>(std::lround(coarse[i]));
+    double ur = coarse[i];
+    if (v >= hr && v < rows - hr && ul >= hr && ul < left_image.cols - hr && ur0 - 4 >= hr &&
+        ur0 + 4 < right_image.cols - hr) {
+      int sr[9];
+      for (int k = -4; k <= 4; ++k) sr[k + 4] = patchSad(left_image, right_image, ul, ur0 + k, v, hr);
       int m = 1;
       for (int k = 2; k <= 7; ++k) {
-        if (sad[k] < sad[m]) m = k;
+        if (sr[k] < sr[m]) m = k;
       }
-      const double a = sad[m - 1], b = sad[m], c = sad[m + 1], den = a - 2 * b + c;
+      const double a = sr[m - 1], b = sr[m], c = sr[m + 1], den = a - 2 * b + c;
       const double offset = den > 0 ? 0.5 * (a - c) / den : 0.0;
       // The patch is centred on the rounded left keypoint: carry its own rounding over.
       if (std::fabs(offset) <= 1.0) ur = ur0 + (m - 4) + offset + (kl.pt.x - ul);

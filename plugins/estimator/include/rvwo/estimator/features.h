@@ -48,13 +48,16 @@ class FeatureExtractor {
   cv::Ptr<cv::ORB> orb_;
 };
 
-// Rectified stereo: for each left keypoint, the right keypoint on the same row band (the level's
-// noise, 2 px scaled) and of a similar level with the closest descriptor (Hamming <= 60, and
-// clearly better than the second best), its column refined to sub-pixel by matching a patch
-// (7x7 at level 0, wider at coarser levels) along the row (parabola through the sum of absolute differences). Fills
-// left.u_right and left.depth for disparities in [min_disparity, max_disparity].
-void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, const Features& right, double bf,
-                 double min_disparity, double max_disparity, Features* left);
+// Rectified stereo, with no features in the right image (describing them cost a third of the
+// replay's CPU and served only this): each left keypoint's 11x11 patch is slid along the same row
+// of the right image over the disparity range; the column of smallest sum of absolute differences
+// wins if no other column comes within 0.8 of it (repeated texture gets no depth) and it is not far
+// worse than the frame's typical best (2.1 x the median: occlusions). Its column is then refined to
+// sub-pixel by a patch (7x7 at level 0, wider for coarser keypoints) matched +-4 px along the row,
+// through a parabola. Fills left.u_right and left.depth for disparities in [min_disparity,
+// max_disparity].
+void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, double bf, double min_disparity,
+                 double max_disparity, Features* left);
 
 // RGB-D: depth at each keypoint (metres = raw / depth_factor; 0 or invalid = none), u_R from bf.
 // depth: CV_16U or CV_32F, the image's size.
