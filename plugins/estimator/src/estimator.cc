@@ -43,6 +43,14 @@ constexpr double kChi2WheelOutlier = 16.27;
 // walker passing close in front during a slip blinded tracking for 1.5 s, and the wheels, still
 // spinning, took the pose 0.4 rad off (0.5 s of hold: 0.74 % of the path; 2 s: 0.11 %).
 constexpr double kSlipHold = 2.0;
+// ... if the slip lasted this many frames: a real one goes on (the suite's slips: 16 to 30 slip
+// frames a second), while a frame or two of vision alone winning, among walkers not yet labelled,
+// is no slip to hold on (threaded combined, 84.9 s: two such frames, then a blackout held the
+// pose through a turn, 27 deg off).
+constexpr int kSlipHoldMinFrames = 3;
+// A slip starts only with this many times Estimator.MinInliers trusted landmarks behind vision
+// alone (threaded combined, 84.87 s: 14 of 127 matches trusted, the rest walkers, made a slip).
+constexpr int kSlipMinInliers = 2;
 // Mono: new points are triangulated between a keyframe and this many keyframes before it.
 constexpr int kTriangulationNeighbours = 5;
 
@@ -278,6 +286,7 @@ struct Estimator::Impl {
   std::size_t slip_frames = 0;                 // frames where vision overruled the wheels
   bool slipping = false;                       // the last frame was one (tracking's)
   double last_slip_t = -1e300;                 // the last such frame's time
+  int slip_run = 0;                            // slip frames in a row, up to the last one
   std::atomic<std::size_t> wheel_outliers{0};  // wheel edges local BA found wrong
   std::mutex slip_mutex;
   std::deque<double> slip_times;  // of those frames, since the oldest keyframe in memory
@@ -565,7 +574,14 @@ struct Estimator::Impl {
     kernel.reserve(n);
     for (std::size_t k = 0; k < n; ++k) {
       const double alpha = kernelAlpha(matches[k].point);
-      usable[k] = !rejected(alpha);
+      // With the adaptive kernel a landmark any label has called dynamic does not place a frame,
+      // though its alpha (0.51 after one person label, by the weights of ReliabilityParams) keeps
+      // it in the map: a frame's pose is cheap to get wrong the other way (the wheels carry it),
+      // while walkers' landmarks, freshly labelled and given depth, may outnumber the static ones
+      // (dynamic 30 s cut, 8-10 s: a 0.4 deg yaw error; 0.135 -> 0.058 % of the path). Beyond
+      // the paper, which weighs every landmark by its alpha alone. Huber and a fixed alpha know
+      // nothing of labels.
+      usable[k] = !rejected(alpha) && (opt.kernel != KernelChoice::kAdaptive || isTrusted(matches[k].point));
       stereo[k] = hasStereo(f, matches[k].feature);
       sigma[k] = opt.sigma_px * std::pow(opt.scale_factor, f.keypoints[matches[k].feature].octave);
       kernel.push_back(barron(alpha, stereo[k]));
@@ -774,7 +790,8 @@ struct Estimator::Impl {
             (strained &&
              (trusted_v >= 1.05 * trusted_f + 10 ||
               (disagree && trusted_v > trusted_f && wheelsDisagree(*delta, last_pose.inverse() * SE2::fromVector(x)))));
-        const bool starts = better && trusted_v >= 0.85 * n_trusted && looksLikeSlip(*delta, T_vision);
+        const bool starts = better && trusted_v >= 0.85 * n_trusted && trusted_v >= kSlipMinInliers * opt.min_inliers &&
+                            looksLikeSlip(*delta, T_vision);
         // Once slipping, vision alone stays in charge while it explains about as much and the
         // wheels go on claiming motion it does not see (beyond their tolerance, or their gate).
         const bool goes_on =
@@ -787,6 +804,7 @@ struct Estimator::Impl {
           errors.swap(errors_v);
           ++slip_frames;
           last_slip_t = t;
+          slip_run = was_slipping ? slip_run + 1 : 1;
           std::lock_guard<std::mutex> slock(slip_mutex);
           slip_times.push_back(t);
         }
@@ -803,7 +821,14 @@ struct Estimator::Impl {
       auto t5 = Clock::now();
       if (const std::optional<Eigen::Vector3d> x_map = relocalise(f)) {
         x = *x_map;
+        // Only trusted landmarks place the frame: with no wheel prior here, walkers' landmarks
+        // that a label has seen (still inliers under their kernel) would pull the pose along
+        // (dynamic scenario cut to 30 s, 9.6 s, with more walker points given depth: 383 of 458
+        // inliers on walkers, the pose 7.6 cm off).
         matches = searchByProjection(f, x, 1.0);
+        matches.erase(
+            std::remove_if(matches.begin(), matches.end(), [&](const Match& m) { return !isTrusted(m.point); }),
+            matches.end());
         inliers = optimisePose(f, matches, std::nullopt, x, &x, &inlier, &errors);
         trusted = trustedOf(matches);
         visual = countTrusted(inlier) >= 3 * opt.min_inliers;
@@ -815,7 +840,7 @@ struct Estimator::Impl {
     // left it (for at most kSlipHold) and the wheel edges across it keep their Huber kernel.
     // (Vision's last motion, extrapolated instead, once carried a slip frame's few centimetres
     // for two seconds: a 3.8 m error, combined scenario, threaded.)
-    const bool after_slip = !visual && !slipping && t - last_slip_t <= kSlipHold;
+    const bool after_slip = !visual && !slipping && t - last_slip_t <= kSlipHold && slip_run >= kSlipHoldMinFrames;
     if (after_slip) {
       std::lock_guard<std::mutex> slock(slip_mutex);
       slip_times.push_back(t);
