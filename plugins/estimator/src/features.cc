@@ -157,7 +157,7 @@ void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, double b
   constexpr int kUnmatched = -1;
   std::vector<double> coarse(n_kp, kUnmatched);  // px: the right column
   std::vector<int> best_sad(n_kp, 0);
-  std::vector<std::uint16_t> sad(static_cast<std::size_t>(right_image.cols) + kBlock);
+  std::vector<std::uint16_t> sad(static_cast<std::size_t>(right_image.cols));  // n <= cols
   const int h = kScanHalf;
   for (std::size_t i = 0; i < n_kp; ++i) {
     const cv::KeyPoint& kl = left->keypoints[i];
