@@ -1,6 +1,7 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 #include "rvwo/semantics/async_segmenter.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace rvwo {
@@ -53,6 +54,7 @@ void AsyncSegmenter::run() {
       if (stop_) return;
       r = std::move(queue_.front());
       queue_.pop_front();
+      running_ = r.info.id;
     }
     std::optional<Segmentation> result;
     std::string error;
@@ -72,6 +74,7 @@ void AsyncSegmenter::run() {
         last_error_ = error;
       }
       finished_[r.info.id] = result.has_value();
+      running_.reset();
       while (finished_.size() > 4 * keep_) finished_.erase(finished_.begin());
     }
     done_.notify_all();
@@ -95,6 +98,13 @@ std::optional<Segmentation> AsyncSegmenter::waitFor(std::uint64_t id, std::chron
   Segmentation s = std::move(it->second);
   results_.erase(it);
   return s;
+}
+
+bool AsyncSegmenter::pending(std::uint64_t id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (stop_) return false;
+  if (running_ == id || results_.count(id)) return true;
+  return std::any_of(queue_.begin(), queue_.end(), [&](const Request& r) { return r.info.id == id; });
 }
 
 AsyncSegmenter::Stats AsyncSegmenter::stats() const {

@@ -7,8 +7,10 @@
 
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
@@ -229,6 +231,68 @@ TEST(AsyncSegmenter, FailuresAreCountedNotFatal) {
   const auto ok = runner.waitFor(14, std::chrono::seconds(5));
   ASSERT_TRUE(ok.has_value());
   EXPECT_EQ(ok->labels.at<int>(0, 0), 0);
+}
+
+// A network that holds each frame until the test opens the gate; id 13 fails.
+class GatedSegmenter final : public Segmenter {
+ public:
+  Segmentation segment(const cv::Mat& image, const FrameInfo& info) override {
+    std::unique_lock<std::mutex> lock(m_);
+    started_ = info.id;
+    cv_.notify_all();
+    cv_.wait(lock, [&] { return open_; });
+    if (info.id == 13) throw std::runtime_error("fake failure");
+    Segmentation s;
+    s.labels = cv::Mat(image.size(), CV_32S, cv::Scalar(1));
+    return s;
+  }
+  void waitStarted(std::uint64_t id) {
+    std::unique_lock<std::mutex> lock(m_);
+    cv_.wait(lock, [&] { return started_ == id; });
+  }
+  void open() {
+    std::lock_guard<std::mutex> lock(m_);
+    open_ = true;
+    cv_.notify_all();
+  }
+  const std::vector<std::string>& classNames() const override { return names_; }
+
+ private:
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::uint64_t started_ = 0;
+  bool open_ = false;
+  std::vector<std::string> names_{"a", "b"};
+};
+
+// pending(): what the estimator asks before trusting a keyframe's new landmarks (their labels may
+// still come) or giving up on its labels (they never will).
+TEST(AsyncSegmenter, PendingWhileQueuedRunningOrUntakenNotWhenDroppedFailedOrTaken) {
+  auto net = std::make_shared<GatedSegmenter>();
+  AsyncSegmenter runner(net, 2, 8);
+  const cv::Mat img(4, 4, CV_8UC3, cv::Scalar(0));
+  EXPECT_FALSE(runner.pending(1)) << "never submitted";
+  runner.submit(img, {1, 0.0});
+  net->waitStarted(1);
+  runner.submit(img, {2, 0.0});
+  runner.submit(img, {13, 0.0});
+  EXPECT_TRUE(runner.pending(1)) << "being segmented";
+  EXPECT_TRUE(runner.pending(2)) << "queued";
+  EXPECT_TRUE(runner.pending(13)) << "queued";
+  runner.submit(img, {4, 0.0});  // the queue holds 2: the oldest waiting (2) is dropped
+  EXPECT_FALSE(runner.pending(2)) << "dropped";
+  EXPECT_TRUE(runner.pending(4));
+  net->open();
+  EXPECT_FALSE(runner.waitFor(13, std::chrono::seconds(5)).has_value());
+  EXPECT_FALSE(runner.pending(13)) << "failed";
+  ASSERT_TRUE(runner.waitFor(4, std::chrono::seconds(5)).has_value());
+  EXPECT_FALSE(runner.pending(4)) << "taken";
+  EXPECT_TRUE(runner.pending(1)) << "done, not yet taken";
+  ASSERT_TRUE(runner.take(1).has_value());
+  EXPECT_FALSE(runner.pending(1)) << "taken";
+  runner.submit(img, {5, 0.0});
+  runner.shutdown();
+  EXPECT_FALSE(runner.pending(5)) << "shut down";
 }
 
 // The real network on real frames: person IoU against DynaSLAM's masks.

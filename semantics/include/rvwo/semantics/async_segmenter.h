@@ -42,6 +42,10 @@ class AsyncSegmenter {
   // Waits up to timeout for the frame's result (for a deterministic single-thread mode and tests);
   // std::nullopt when it was dropped, failed, or is not ready in time.
   std::optional<Segmentation> waitFor(std::uint64_t id, std::chrono::milliseconds timeout);
+  // True while the frame's labels may still come: queued, being segmented, or done and not yet
+  // taken. False once taken, dropped, failed, shut down, or for an id never submitted (or whose
+  // result was pushed out of the keep_results newest).
+  bool pending(std::uint64_t id) const;
   void shutdown();
   Stats stats() const;
   std::string lastError() const;
@@ -58,6 +62,7 @@ class AsyncSegmenter {
   mutable std::mutex mutex_;
   std::condition_variable work_, done_;
   std::deque<Request> queue_;
+  std::optional<std::uint64_t> running_;  // the id being segmented
   std::map<std::uint64_t, Segmentation> results_;
   std::map<std::uint64_t, bool> finished_;  // id -> succeeded, for waitFor (bounded like results_)
   bool stop_ = false;
