@@ -49,6 +49,41 @@ TEST(Features, SpreadOverTheGridAndWithinBudget) {
   EXPECT_EQ(near.size(), brute);
 }
 
+// The SIMD sums (16 columns a block, the last block overlapping, 32-bit flushes for large patches)
+// equal plain sums: worst-case contrast (0 against 255, so a 16-bit sum would overflow for h >= 8),
+// every patch size the matcher uses and beyond, runs that end at the image's right edge.
+TEST(Features, PatchSadsEqualPlainSums) {
+  std::mt19937 rng(7);
+  cv::Mat left(64, 200, CV_8U), right(64, 200, CV_8U);
+  cv::randu(left, 0, 256);
+  cv::randu(right, 0, 256);
+  left(cv::Rect(0, 0, 100, 64)).setTo(0);
+  right(cv::Rect(0, 0, 120, 64)).setTo(255);
+  const auto plain = [&](int x, int y, int xr, int h) {
+    std::uint32_t sad = 0;
+    for (int dy = -h; dy <= h; ++dy)
+      for (int dx = -h; dx <= h; ++dx) sad += std::abs(left.at<uchar>(y + dy, x + dx) - right.at<uchar>(y + dy, xr + dx));
+    return sad;
+  };
+  for (int h : {1, 3, 5, 8, 10, 12, 13, 15}) {
+    for (int trial = 0; trial < 40; ++trial) {
+      const int y = std::uniform_int_distribution<int>(h, left.rows - 1 - h)(rng);
+      const int x = std::uniform_int_distribution<int>(h, left.cols - 1 - h)(rng);
+      const int n = std::uniform_int_distribution<int>(1, 60)(rng);
+      // Half the runs end exactly at the right edge, the rest anywhere.
+      const int last = trial % 2 ? right.cols - 1 - h : std::uniform_int_distribution<int>(h + n - 1, right.cols - 1 - h)(rng);
+      const int xr = last - n + 1;
+      std::vector<std::uint32_t> sads(n);
+      patchSads(left, right, x, y, xr, n, h, sads.data());
+      for (int p = 0; p < n; ++p) ASSERT_EQ(sads[p], plain(x, y, xr + p, h)) << "h " << h << " n " << n << " p " << p;
+    }
+  }
+  // Patches of 0 against ones of 255, the largest SIMD patch (25 x 25): 2.4 x what 16 bits hold.
+  std::uint32_t worst[16];
+  patchSads(left, right, 50, 30, 40, 16, 12, worst);
+  for (std::uint32_t w : worst) EXPECT_EQ(w, 25u * 25u * 255u);
+}
+
 TEST(Features, StereoDepthFromAKnownSubPixelDisparity) {
   const cv::Mat left = texture(2);
   for (double d : {9.0, 15.3, 30.7}) {

@@ -7,6 +7,7 @@
 #include <limits>
 #include <numeric>
 #include <opencv2/core/hal/hal.hpp>
+#include <opencv2/core/hal/intrin.hpp>
 
 namespace rvwo::estimator {
 
@@ -99,50 +100,78 @@ Features FeatureExtractor::extract(const cv::Mat& image) const {
 }
 
 namespace {
+constexpr int kMaxPatchHalf = 12;  // px: larger patches are summed without SIMD
+}  // namespace
 
-// Sum of absolute differences of (2h+1)^2 patches centred at (ul, v) in left and (ur, v) in right.
-int patchSad(const cv::Mat& left, const cv::Mat& right, int ul, int ur, int v, int h) {
-  int sad = 0;
-  for (int dy = -h; dy <= h; ++dy) {
-    const uchar* a = left.ptr<uchar>(v + dy) + ul - h;
-    const uchar* b = right.ptr<uchar>(v + dy) + ur - h;
-    for (int dx = 0; dx <= 2 * h; ++dx) sad += std::abs(int(a[dx]) - int(b[dx]));
+void patchSads(const cv::Mat& left, const cv::Mat& right, int x, int y, int xr, int n, int h, std::uint32_t* sads) {
+  const int w = 2 * h + 1;
+  int p = 0;
+#if CV_SIMD128
+  // Sixteen right columns at a time: |a - b| of a broadcast left pixel and 16 right ones in 8 bits,
+  // widened and summed in 16 bits, moved to 32 bits before a 16-bit sum could overflow (after
+  // 65535 / (255 w) rows: never for the 11x11 scan, every few rows for a level-7 21x21 patch).
+  const int rows_per_flush = 65535 / (255 * w);
+  // The left patch's pixels, each broadcast once for every block.
+  cv::v_uint8x16 a_all[(2 * kMaxPatchHalf + 1) * (2 * kMaxPatchHalf + 1)];
+  const bool simd = h <= kMaxPatchHalf;
+  if (simd) {
+    for (int dy = 0; dy < w; ++dy) {
+      const uchar* a = left.ptr<uchar>(y - h + dy) + x - h;
+      for (int dx = 0; dx < w; ++dx) a_all[dy * w + dx] = cv::v_setall_u8(a[dx]);
+    }
   }
-  return sad;
+  for (; simd && p < n && xr + p + 15 + h < right.cols; p += 16) {
+    const int start = std::min(p, std::max(0, n - 16));  // the last block overlaps its neighbour
+    cv::v_uint32x4 s0 = cv::v_setzero_u32(), s1 = s0, s2 = s0, s3 = s0;
+    cv::v_uint16x8 lo = cv::v_setzero_u16(), hi = lo;
+    int rows = 0;
+    for (int dy = -h; dy <= h; ++dy) {
+      const cv::v_uint8x16* a = a_all + (dy + h) * w;
+      const uchar* b = right.ptr<uchar>(y + dy) + xr + start - h;
+      for (int dx = 0; dx < w; ++dx) {
+        cv::v_uint16x8 l, u;
+        cv::v_expand(cv::v_absdiff(a[dx], cv::v_load(b + dx)), l, u);
+        lo += l;
+        hi += u;
+      }
+      if (++rows == rows_per_flush || dy == h) {
+        cv::v_uint32x4 l0, l1, u0, u1;
+        cv::v_expand(lo, l0, l1);
+        cv::v_expand(hi, u0, u1);
+        s0 += l0;
+        s1 += l1;
+        s2 += u0;
+        s3 += u1;
+        lo = hi = cv::v_setzero_u16();
+        rows = 0;
+      }
+    }
+    std::uint32_t block[16];
+    cv::v_store(block, s0);
+    cv::v_store(block + 4, s1);
+    cv::v_store(block + 8, s2);
+    cv::v_store(block + 12, s3);
+    std::copy(block + (p - start), block + std::min(16, n - start), sads + p);
+  }
+#endif
+  // Without SIMD, near the right image's edge (a block would read past the row), large patches.
+  for (; p < n; ++p) {
+    std::uint32_t sad = 0;
+    for (int dy = -h; dy <= h; ++dy) {
+      const uchar* a = left.ptr<uchar>(y + dy) + x - h;
+      const uchar* b = right.ptr<uchar>(y + dy) + xr + p - h;
+      for (int dx = 0; dx < w; ++dx) sad += static_cast<std::uint32_t>(std::abs(int(a[dx]) - int(b[dx])));
+    }
+    sads[p] = sad;
+  }
 }
 
+namespace {
+
 constexpr int kScanHalf = 5;  // px: the row scan's patch is 11x11
-constexpr int kBlock = 16;    // positions summed at once: a fixed count the compiler vectorises
 // The best column must beat every other (away from its own slope) by this factor: repeated
 // texture along the row (a fence, tiles) matches anywhere and is left without depth.
 constexpr double kUniqueness = 0.8;
-
-// SAD of the left patch at (x, y) with the right patch at every column xr in [x0, x0 + n), into
-// sad[0, n). Sixteen positions at a time, summed in a local block over the whole patch: the
-// compiler keeps it in registers and vectorises the fixed-length inner loop (a store through
-// sad, which a uchar pointer may alias, would stop it). 121 x 255 fits in 16 bits.
-void scanRow(const cv::Mat& left, const cv::Mat& right, int x, int y, int x0, int n, std::uint16_t* sad) {
-  const int h = kScanHalf;
-  for (int p = 0; p < n; p += kBlock) {
-    std::uint16_t acc[kBlock] = {};
-    const int m = std::min(kBlock, n - p);
-    for (int dy = -h; dy <= h; ++dy) {
-      const uchar* a = left.ptr<uchar>(y + dy) + x - h;
-      const uchar* b = right.ptr<uchar>(y + dy) + x0 + p - h;
-      if (m == kBlock) {
-        for (int dx = 0; dx <= 2 * h; ++dx) {
-          const int av = a[dx];
-          for (int k = 0; k < kBlock; ++k) acc[k] += static_cast<std::uint16_t>(std::abs(av - int(b[dx + k])));
-        }
-      } else {  // the row's last, partial block: never read past the image's row
-        for (int dx = 0; dx <= 2 * h; ++dx) {
-          for (int k = 0; k < m; ++k) acc[k] += static_cast<std::uint16_t>(std::abs(int(a[dx]) - int(b[dx + k])));
-        }
-      }
-    }
-    std::copy(acc, acc + m, sad + p);
-  }
-}
 
 }  // namespace
 
@@ -157,7 +186,7 @@ void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, double b
   constexpr int kUnmatched = -1;
   std::vector<double> coarse(n_kp, kUnmatched);  // px: the right column
   std::vector<int> best_sad(n_kp, 0);
-  std::vector<std::uint16_t> sad(static_cast<std::size_t>(right_image.cols));  // n <= cols
+  std::vector<std::uint32_t> sad(static_cast<std::size_t>(right_image.cols));  // n <= cols
   const int h = kScanHalf;
   for (std::size_t i = 0; i < n_kp; ++i) {
     const cv::KeyPoint& kl = left->keypoints[i];
@@ -167,13 +196,15 @@ void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, double b
     const int hi = std::min(right_image.cols - 1 - h, static_cast<int>(std::floor(x - min_disparity)));
     const int n = hi - lo + 1;
     if (n < 3) continue;
-    scanRow(left_image, right_image, x, y, lo, n, sad.data());
-    const int m = static_cast<int>(std::min_element(sad.begin(), sad.begin() + n) - sad.begin());
+    patchSads(left_image, right_image, x, y, lo, n, h, sad.data());
+    // The first column of least SAD (min, then find: both loops vectorise, min_element does not).
+    std::uint32_t least = sad[0];
+    for (int p = 1; p < n; ++p) least = std::min(least, sad[p]);
+    const int m = static_cast<int>(std::find(sad.begin(), sad.begin() + n, least) - sad.begin());
     // Unique: no other column, away from the minimum's own slope (+-2 px), comes close to it.
-    int second = std::numeric_limits<int>::max();
-    for (int p = 0; p < n; ++p) {
-      if (std::abs(p - m) > 2) second = std::min(second, static_cast<int>(sad[p]));
-    }
+    std::uint32_t second = std::numeric_limits<std::uint32_t>::max();
+    for (int p = 0; p < m - 2; ++p) second = std::min(second, sad[p]);
+    for (int p = m + 3; p < n; ++p) second = std::min(second, sad[p]);
     if (sad[m] >= kUniqueness * second) continue;
     best_sad[i] = sad[m];
     // The keypoint sits (pt.x - x) px off the patch centre; the right one as far off its column.
@@ -205,8 +236,8 @@ void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, double b
     double ur = coarse[i];
     if (v >= hr && v < rows - hr && ul >= hr && ul < left_image.cols - hr && ur0 - 4 >= hr &&
         ur0 + 4 < right_image.cols - hr) {
-      int sr[9];
-      for (int k = -4; k <= 4; ++k) sr[k + 4] = patchSad(left_image, right_image, ul, ur0 + k, v, hr);
+      std::uint32_t sr[9];
+      patchSads(left_image, right_image, ul, v, ur0 - 4, 9, hr, sr);
       int m = 1;
       for (int k = 2; k <= 7; ++k) {
         if (sr[k] < sr[m]) m = k;

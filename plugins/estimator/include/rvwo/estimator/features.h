@@ -7,6 +7,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
+#include <cstdint>
 #include <vector>
 
 namespace rvwo::estimator {
@@ -58,6 +59,12 @@ class FeatureExtractor {
 // max_disparity].
 void matchStereo(const cv::Mat& left_image, const cv::Mat& right_image, double bf, double min_disparity,
                  double max_disparity, Features* left);
+
+// Sums of absolute differences of the (2h+1)^2 patch centred at (x, y) in left with the patches
+// centred at (xr + p, y) in right, for p in [0, n), into sads[0, n). Both 8-bit grey; every patch
+// must lie inside its image. Sixteen columns at once with SIMD where OpenCV has it (SSE2, NEON),
+// scalar otherwise: the same sums either way.
+void patchSads(const cv::Mat& left, const cv::Mat& right, int x, int y, int xr, int n, int h, std::uint32_t* sads);
 
 // RGB-D: depth at each keypoint (metres = raw / depth_factor; 0 or invalid = none), u_R from bf.
 // depth: CV_16U or CV_32F, the image's size.
