@@ -5,9 +5,9 @@
 // convention: the SE(2)-XYZ stereo edge measures (u_L, v, u_R)), or -1 where there is none.
 #pragma once
 
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
-#include <cstdint>
 #include <vector>
 
 namespace rvwo::estimator {
