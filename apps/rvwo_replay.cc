@@ -25,6 +25,7 @@
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CObservationStereoImages.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -250,6 +251,16 @@ double peakMemoryMb() {
     if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
   }
   return 0;
+}
+
+// Seconds of CPU this process used so far, all threads, user and system.
+double cpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  const auto sec = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+  };
+  return sec(u.ru_utime) + sec(u.ru_stime);
 }
 
 rvwo::apps::Trajectory toTrajectory(const std::vector<rvwo::estimator::PoseEstimate>& poses) {
@@ -491,8 +502,13 @@ int main(int argc, char** argv) {
       }
     }
     if (skipped > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped);
-    std::printf("  speed: %.1f s of data in %.1f s: %.2fx real time, %.1f frames/s; peak memory %.0f MB\n", seq_s, wall,
-                seq_s / wall, rep.frames / wall, peakMemoryMb());
+    // CPU as well as wall time: the wall time depends on what else the machine runs, the CPU says
+    // how much of it a second of data takes (on two cores, 2x real time needs at most 1 s of CPU a
+    // data second, and threads that keep both cores busy).
+    const double cpu = cpuSeconds();
+    std::printf("  speed: %.1f s of data in %.1f s: %.2fx real time, %.1f frames/s; ", seq_s, wall, seq_s / wall,
+                rep.frames / wall);
+    std::printf("CPU %.1f s (%.2f cores); peak memory %.0f MB\n", cpu, cpu / wall, peakMemoryMb());
     std::printf("  timings [ms]     mean     p95     max   count\n");
     for (const auto& [stage, s] : rep.timings) {
       std::printf("  %-14s %7.2f %7.2f %7.1f %7zu\n", stage.c_str(), s.mean, s.p95, s.max, s.count);
