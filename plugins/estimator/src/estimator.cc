@@ -765,6 +765,10 @@ struct Estimator::Impl {
       for (std::size_t k = 0; k < in.size(); ++k) n += in[k] && trusted[k];
       return n;
     };
+    // Trusted inliers a frame needs for vision to place it. Coming back from the wheels, vision
+    // must be convincingly back (the first frames after a blackout carry few, poorly placed
+    // matches: one such frame put the pose 6 cm off).
+    const int to_place = (last_visual ? 1 : 3) * opt.min_inliers;
     if (!matches.empty()) {
       inliers = optimisePose(f, matches, prior, last_pose.vector(), &x, &inlier, &errors);
       // Slip check: the wheels' motion against vision alone. When the wheels spin in place (or
@@ -802,12 +806,11 @@ struct Estimator::Impl {
             (strained &&
              (trusted_v >= 1.05 * trusted_f + 10 ||
               (disagree && trusted_v > trusted_f && wheelsDisagree(*delta, last_pose.inverse() * SE2::fromVector(x)))));
-        // Only vision that would place the frame overrules the wheels (as many trusted inliers as a
-        // visual frame needs, more when coming back from the wheels): mono, blind in a turn among
+        // Only vision that would place the frame overrules the wheels: mono, blind in a turn among
         // walkers and bumps, called 5 and 12 frames slips that vision could not place, and the
         // pose then held still for the 2 s after, while the robot turned 12 deg (threaded mono
         // combined, 41.7 and 45.3 s).
-        const bool would_place = trusted_v >= (last_visual ? 1 : 3) * opt.min_inliers;
+        const bool would_place = trusted_v >= to_place;
         const bool starts = better && would_place && trusted_v >= 0.85 * n_trusted &&
                             trusted_v >= kSlipMinInliers * opt.min_inliers && looksLikeSlip(*delta, T_vision);
         // Once slipping, vision alone stays in charge while it explains about as much and the
@@ -829,10 +832,8 @@ struct Estimator::Impl {
       }
     }
     timings.add("pose", msSince(t3));
-    // Coming back from the wheels, vision must be convincingly back (the first frames after a
-    // blackout carry few, poorly placed matches: one such frame put the pose 6 cm off).
     // (Trusted inliers only: following a walker's landmarks is following the walker.)
-    bool visual = countTrusted(inlier) >= (last_visual ? 1 : 3) * opt.min_inliers;
+    bool visual = countTrusted(inlier) >= to_place;
     // Still blind after a stretch on the wheels: their prediction may be too far off for the
     // projection search; the map in memory may still be in view.
     if (!visual && !last_visual) {
