@@ -118,6 +118,43 @@ TEST(OrbSlam3Patches, CheckerCatchesABrokenHunk) {
   fs::remove(bad);
 }
 
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// What the patches call into RVWO (rvwo::orbslam3::..., Tracking's mWheels.<method>(), the
+// headers they include) is declared by plugins/orbslam3: a renamed plugin function breaks the
+// ORB-SLAM3 build, which CI does not run, so it is caught here.
+TEST(OrbSlam3Patches, CallOnlyWhatThePluginDeclares) {
+  const fs::path include = fs::path(RVWO_SOURCE_DIR) / "plugins" / "orbslam3" / "include" / "rvwo" / "orbslam3";
+  std::string headers;
+  for (const auto& e : fs::directory_iterator(include)) headers += slurp(e.path());
+  ASSERT_FALSE(headers.empty()) << include;
+  const std::regex call(R"((?:rvwo::orbslam3::|mWheels\.)(\w+))"), inc(R"(#include <rvwo/orbslam3/(\w+\.h)>)");
+  int uses = 0;
+  for (const fs::path& patch : patches()) {
+    std::ifstream in(patch);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.rfind("+", 0) != 0 || line.rfind("+++", 0) == 0) continue;
+      for (std::sregex_iterator m(line.begin(), line.end(), call), end; m != end; ++m) {
+        const std::string name = (*m)[1];
+        const std::regex declared("(\\b" + name + "\\s*\\()|((struct|class) " + name + "\\b)");
+        EXPECT_TRUE(std::regex_search(headers, declared)) << patch.filename() << " uses " << name;
+        ++uses;
+      }
+      std::smatch m;
+      if (std::regex_search(line, m, inc)) {
+        EXPECT_TRUE(fs::exists(include / m[1].str())) << patch.filename() << " includes " << m[1];
+        ++uses;
+      }
+    }
+  }
+  std::printf("[ figures  ] %d uses of the plugin in the patches\n", uses);
+  EXPECT_GE(uses, 10);
+}
+
 TEST(OrbSlam3Patches, CarryTheirOwnLicence) {
   std::ifstream in(kDir / "LICENSE");
   ASSERT_TRUE(in.good()) << "patches/orbslam3/LICENSE";

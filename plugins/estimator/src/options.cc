@@ -7,26 +7,6 @@
 #include <stdexcept>
 
 namespace rvwo::estimator {
-namespace {
-
-Eigen::Isometry3d isometry(const Settings& s, const std::string& key, bool required) {
-  const auto m = s.matrix(key, 4, 4);
-  if (!m) {
-    if (required) throw std::invalid_argument(s.path() + ": missing key " + key);
-    return Eigen::Isometry3d::Identity();
-  }
-  Eigen::Matrix4d M = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(m->data());
-  const Eigen::Matrix3d R = M.topLeftCorner<3, 3>();
-  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || std::fabs(R.determinant() - 1) > 1e-6 ||
-      (M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9)
-    throw std::invalid_argument(s.path() + ": " + key + " is not a rigid transform (rotation and translation)");
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = R;
-  T.translation() = M.topRightCorner<3, 1>();
-  return T;
-}
-
-}  // namespace
 
 void StereoRectification::rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat* left_out,
                                   cv::Mat* right_out) const {
@@ -112,10 +92,10 @@ Rig readRig(const Settings& s) {
     const KannalaBrandtCamera right(fx2, fy2, s.requireNumber("Camera2.cx"), s.requireNumber("Camera2.cy"),
                                     s.requireNumber("Camera2.k1"), s.requireNumber("Camera2.k2"),
                                     s.requireNumber("Camera2.k3"), s.requireNumber("Camera2.k4"));
-    const Eigen::Isometry3d T_c1_c2 = isometry(s, "Stereo.T_c1_c2", true);
+    const Eigen::Isometry3d T_c1_c2 = readIsometry(s, "Stereo.T_c1_c2", true);
     if (!(T_c1_c2.translation().norm() > 0))
       throw std::invalid_argument(s.path() + ": Stereo.T_c1_c2 must separate the cameras");
-    rig.T_b_c = isometry(s, "Camera.T_b_c", true);
+    rig.T_b_c = readIsometry(s, "Camera.T_b_c", true);
     rectifyFisheyeStereo(static_cast<const KannalaBrandtCamera&>(*rig.camera), right, T_c1_c2, &rig);
   } else if (rig.sensor == Sensor::kStereo) {
     rig.baseline = s.requireNumber("Stereo.b");
@@ -127,8 +107,8 @@ Rig readRig(const Settings& s) {
     rig.depth_factor = s.requireNumber("RGBD.DepthMapFactor");
     if (!(rig.depth_factor > 0)) throw std::invalid_argument(s.path() + ": RGBD.DepthMapFactor must be > 0");
   }
-  if (!rig.rectification) rig.T_b_c = isometry(s, "Camera.T_b_c", true);
-  const Eigen::Isometry3d T_b_o = isometry(s, "Odometry.T_b_o", false);
+  if (!rig.rectification) rig.T_b_c = readIsometry(s, "Camera.T_b_c", true);
+  const Eigen::Isometry3d T_b_o = readIsometry(s, "Odometry.T_b_o", false);
   rig.T_b_o =
       SE2(T_b_o.translation().x(), T_b_o.translation().y(), std::atan2(T_b_o.linear()(1, 0), T_b_o.linear()(0, 0)));
   return rig;
@@ -158,9 +138,7 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   if (const auto v = s.number("Estimator.SigmaRollPitch"))
     o.out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * (*v) * (*v);
   o.wheel_noise = readWheelNoise(s, o.wheel_noise);
-  num("Odometry.WheelRadiusLeft", &o.drive.radius_left);
-  num("Odometry.WheelRadiusRight", &o.drive.radius_right);
-  num("Odometry.Track", &o.drive.track);
+  o.drive = readDiffDrive(s, o.drive);
   if (const auto v = s.number("Odometry.Calibrate")) o.calibrate = *v != 0;
   o.reliability = readReliability(s, o.reliability);
   o.priors = readSemanticPriors(s);

@@ -126,6 +126,35 @@ WheelNoise readWheelNoise(const Settings& s, WheelNoise n) {
   return n;
 }
 
+Eigen::Isometry3d readIsometry(const Settings& s, const std::string& key, bool required) {
+  const auto m = s.matrix(key, 4, 4);
+  if (!m) {
+    if (required) throw std::invalid_argument(s.path() + ": missing key " + key);
+    return Eigen::Isometry3d::Identity();
+  }
+  Eigen::Matrix4d M = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(m->data());
+  const Eigen::Matrix3d R = M.topLeftCorner<3, 3>();
+  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || std::fabs(R.determinant() - 1) > 1e-6 ||
+      (M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9)
+    throw std::invalid_argument(s.path() + ": " + key + " is not a rigid transform (rotation and translation)");
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = M.topRightCorner<3, 1>();
+  return T;
+}
+
+DiffDriveParams readDiffDrive(const Settings& s, DiffDriveParams d) {
+  if (const auto v = s.number("Odometry.WheelRadiusLeft")) d.radius_left = *v;
+  if (const auto v = s.number("Odometry.WheelRadiusRight")) d.radius_right = *v;
+  if (const auto v = s.number("Odometry.Track")) d.track = *v;
+  try {
+    d.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(s.path() + ": " + e.what());
+  }
+  return d;
+}
+
 SemanticPriors readSemanticPriors(const Settings& s) {
   const std::string set = s.text("Semantics.LabelSet").value_or("voc21");
   SemanticPriors priors = [&] {

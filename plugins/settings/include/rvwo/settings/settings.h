@@ -12,6 +12,7 @@
 //   Semantics.Prior.<class>: <prior>         one class's prior, e.g. Semantics.Prior.chair: 0.6
 #pragma once
 
+#include <Eigen/Geometry>
 #include <memory>
 #include <optional>
 #include <string>
@@ -56,5 +57,10 @@ class Settings {
 ReliabilityParams readReliability(const Settings& s, ReliabilityParams defaults = {});
 WheelNoise readWheelNoise(const Settings& s, WheelNoise defaults = {});
 SemanticPriors readSemanticPriors(const Settings& s);
+// A 4x4 rigid transform (e.g. Camera.T_b_c). Absent: identity, or std::invalid_argument
+// "<path>: missing key <key>" when required; not a rotation and translation: std::invalid_argument.
+Eigen::Isometry3d readIsometry(const Settings& s, const std::string& key, bool required);
+// Odometry.WheelRadiusLeft, Odometry.WheelRadiusRight, Odometry.Track (m), validated.
+DiffDriveParams readDiffDrive(const Settings& s, DiffDriveParams defaults = {});
 
 }  // namespace rvwo

@@ -1,0 +1,90 @@
+// Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
+//
+// Wheel odometry for ORB-SLAM3's tracking, reached from the calls that patches/orbslam3/ inserts.
+// ORB-SLAM3 gets the readings since the previous frame with each image (System::TrackStereo /
+// TrackRGBD / TrackMonocular overloads, as its IMU path gets IMU points), and this class
+//   - predicts the camera pose of the new frame from the previous one and the wheels
+//     (replacing the constant-velocity model):
+//
+//       T_cj_w = T_c_b * T_bj_bi * T_b_c * T_ci_w,   T_bi_bj = wheel delta on SE(2) (eq. 11)
+//
+//   - carries the pose on the wheels while vision cannot place the frame (lens covered, no
+//     texture), so that tracking is never lost and the map resumes from there;
+//   - asks for a keyframe while it carries a stereo or RGB-D frame that has features again, so
+//     that new map points restart tracking where the old map is out of sight.
+//
+// This header is included by ORB-SLAM3's Tracking.h, which upstream compiles as C++11: it uses
+// nothing newer and hides the C++17 core behind a pointer.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace rvwo {
+namespace orbslam3 {
+
+// One odometry reading as the robot's driver gives it, stamped on the camera's clock (s).
+struct WheelReading {
+  enum Kind { kWheelAngles, kWheelSpeeds, kPose };
+  double t;
+  Kind kind;
+  double a, b, c;  // kWheelAngles: cumulative left, right wheel angles [rad];
+                   // kWheelSpeeds: left, right wheel speeds [rad/s];
+                   // kPose: x [m], y [m], theta [rad] of the odometry frame in the odometry's world.
+  static WheelReading angles(double t, double left, double right) { return {t, kWheelAngles, left, right, 0}; }
+  static WheelReading speeds(double t, double left, double right) { return {t, kWheelSpeeds, left, right, 0}; }
+  static WheelReading pose(double t, double x, double y, double theta) { return {t, kPose, x, y, theta}; }
+};
+
+struct WheelInputParams {
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();  // the (left) camera in the body frame [Camera.T_b_c]
+  Eigen::Isometry3d T_b_o = Eigen::Isometry3d::Identity();  // odometry frame in the body frame [Odometry.T_b_o]
+  double radius_left = 0.1, radius_right = 0.1;             // m [Odometry.WheelRadiusLeft/Right]
+  double track = 0.5;                                       // m [Odometry.Track]
+  bool map_from_depth = true;  // stereo or RGB-D: a keyframe alone makes map points [Sensor]
+  int min_features = 500;      // features a frame carried on the wheels needs for a keyframe
+                               // (ORB-SLAM3's own bar for starting a stereo map)
+  int keyframe_every = 5;      // frames between keyframes while on the wheels
+};
+
+class WheelInput {
+ public:
+  WheelInput();  // inactive: ORB-SLAM3 behaves as upstream
+  ~WheelInput();
+  WheelInput(const WheelInput&) = delete;
+  WheelInput& operator=(const WheelInput&) = delete;
+
+  // Active with these parameters (noise from the settings' defaults).
+  void configure(const WheelInputParams& params);
+  // Reads RVWO's keys from ORB-SLAM3's settings YAML: active when it has Camera.T_b_c, inactive
+  // (upstream behaviour) when it has no Odometry.* and no Camera.T_b_c key. Throws
+  // std::invalid_argument naming the file and key of a bad or missing value.
+  void configure(const std::string& settings_path);
+  bool active() const;
+
+  // Readings since the previous frame, in time order. Throws std::invalid_argument on NaN, a
+  // time going back, or a kind other than the stream's first.
+  void add(const std::vector<WheelReading>& readings);
+  // Whether the readings cover [ti, tj], so that predict() can answer.
+  bool covers(double ti, double tj) const;
+  // T_cj_w from T_ci_w and the wheels between ti and tj; std::out_of_range unless covers().
+  Eigen::Isometry3d predict(const Eigen::Isometry3d& T_ci_w, double ti, double tj) const;
+
+  // After tracking a frame: whether vision placed it (else the wheels did), and its features.
+  void frameTracked(double t, bool visual, int features);
+  // Whether the frame just tracked should become a keyframe to restart the map from the wheels.
+  bool keyFrameNeeded() const;
+  std::size_t wheelOnlyFrames() const;
+  // [first, last] frame time of each stretch on the wheels.
+  std::vector<std::pair<double, double> > wheelOnlyIntervals() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace orbslam3
+}  // namespace rvwo

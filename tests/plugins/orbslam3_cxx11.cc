@@ -1,0 +1,9 @@
+// Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
+// Built as C++11 (tests/plugins/CMakeLists.txt): the header ORB-SLAM3's Tracking.h includes.
+#include "rvwo/orbslam3/wheel_input.h"
+
+#if __cplusplus != 201103L
+#error "this file checks the header under C++11"
+#endif
+
+rvwo::orbslam3::WheelReading orbslam3HeaderCompilesAsCxx11() { return rvwo::orbslam3::WheelReading::angles(0, 1, 2); }

@@ -1,0 +1,178 @@
+// Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
+// The ORB-SLAM3 plugin's wheel input, without ORB-SLAM3: predictions against poses composed
+// directly, the keyframe rule, settings, bad readings.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "../common/temp.h"
+#include "rvwo/edges/se2.h"
+#include "rvwo/orbslam3/wheel_input.h"
+
+namespace {
+
+using rvwo::orbslam3::WheelInput;
+using rvwo::orbslam3::WheelInputParams;
+using rvwo::orbslam3::WheelReading;
+
+Eigen::Isometry3d tiltedCamera() {
+  // Looking ahead (camera z along body x), pitched down 5 deg, 0.25 m ahead, 0.4 m up, 3 cm left.
+  Eigen::Matrix3d R;
+  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R * Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T.translation() << 0.25, 0.03, 0.4;
+  return T;
+}
+
+// Ground truth: a drive that turns both ways and passes theta = +-pi.
+rvwo::SE2 truth(double t) {
+  const double theta = 2.6 + 0.9 * std::sin(0.7 * t);
+  return rvwo::SE2(1.5 * std::cos(0.3 * t) + 0.2 * t, 1.2 * std::sin(0.3 * t), theta);
+}
+
+TEST(WheelInput, InactiveUntilConfiguredAndRefusesReadingsThen) {
+  WheelInput w;
+  EXPECT_FALSE(w.active());
+  EXPECT_FALSE(w.covers(0, 1));
+  EXPECT_FALSE(w.keyFrameNeeded());
+  EXPECT_NO_THROW(w.add({}));  // upstream's calls without readings
+  EXPECT_THROW(w.add({WheelReading::angles(0, 0, 0)}), std::invalid_argument);
+  w.frameTracked(0, false, 1000);
+  EXPECT_EQ(w.wheelOnlyFrames(), 0u);
+}
+
+TEST(WheelInput, PredictsTheCameraPoseTheTruthGives) {
+  WheelInputParams p;
+  p.T_b_c = tiltedCamera();
+  p.T_b_o.translation() << -0.1, 0.05, 0;  // odometry frame behind the base, rotated 20 deg
+  p.T_b_o.linear() = Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  WheelInput w;
+  w.configure(p);
+  ASSERT_TRUE(w.active());
+  const rvwo::SE2 T_b_o(p.T_b_o.translation().head<2>(), 0.35);
+  // The robot's odometry reports T_odom_o at 100 Hz, its world rotated and shifted from ours.
+  const rvwo::SE2 T_odom_w(3.0, -2.0, 1.1);
+  std::vector<WheelReading> readings;
+  for (int k = 0; k <= 1000; ++k) {
+    const double t = 0.01 * k;
+    const rvwo::SE2 T_odom_o = T_odom_w * truth(t) * T_b_o;
+    readings.push_back(WheelReading::pose(t, T_odom_o.translation().x(), T_odom_o.translation().y(), T_odom_o.angle()));
+  }
+  w.add(readings);
+  EXPECT_FALSE(w.covers(-0.1, 1.0));
+  EXPECT_FALSE(w.covers(9.0, 10.1));
+  EXPECT_FALSE(w.covers(2.0, 1.0));
+  EXPECT_THROW(w.predict(Eigen::Isometry3d::Identity(), 9.0, 10.1), std::out_of_range);
+  // Camera frames at 30 Hz (between readings), and a gap of a second.
+  const std::pair<double, double> spans[] = {{0.0, 1.0 / 30}, {4.0 / 30, 5.0 / 30}, {3.01, 4.02}, {9.95, 10.0}};
+  for (const auto& [ti, tj] : spans) {
+    ASSERT_TRUE(w.covers(ti, tj));
+    const Eigen::Isometry3d T_ci_w = (truth(ti).isometry3() * p.T_b_c).inverse();
+    const Eigen::Isometry3d T_cj_w = (truth(tj).isometry3() * p.T_b_c).inverse();
+    const Eigen::Isometry3d predicted = w.predict(T_ci_w, ti, tj);
+    // Readings straddling a frame are split along their constant-twist arc: exact up to the
+    // arc's difference from the truth's curve over 10 ms.
+    EXPECT_LT((predicted.translation() - T_cj_w.translation()).norm(), 2e-4) << ti << " " << tj;
+    EXPECT_LT(Eigen::AngleAxisd(predicted.linear().transpose() * T_cj_w.linear()).angle(), 2e-4) << ti << " " << tj;
+  }
+  // At reading times the pose input is exact.
+  const Eigen::Isometry3d T_ci_w = (truth(2.0).isometry3() * p.T_b_c).inverse();
+  const Eigen::Isometry3d T_cj_w = (truth(2.5).isometry3() * p.T_b_c).inverse();
+  EXPECT_TRUE(w.predict(T_ci_w, 2.0, 2.5).isApprox(T_cj_w, 1e-9));
+}
+
+TEST(WheelInput, WheelAnglesDriveTheCameraAlongItsAxis) {
+  WheelInputParams p;
+  p.T_b_c = tiltedCamera();
+  p.radius_left = p.radius_right = 0.08;
+  WheelInput w;
+  w.configure(p);
+  w.add({WheelReading::angles(0.0, 1.0, 2.0), WheelReading::angles(0.5, 1.0 + 5.0, 2.0 + 5.0)});
+  // Both wheels turned 5 rad: 0.4 m straight ahead; the camera moves along its own axis, tilted.
+  const Eigen::Isometry3d T_cj_w = w.predict(Eigen::Isometry3d::Identity(), 0.0, 0.5);
+  const Eigen::Vector3d along = p.T_b_c.linear().transpose() * Eigen::Vector3d(0.4, 0, 0);
+  EXPECT_TRUE(T_cj_w.linear().isApprox(Eigen::Matrix3d::Identity(), 1e-12));
+  EXPECT_TRUE(T_cj_w.translation().isApprox(-along, 1e-12));
+  EXPECT_NEAR(along.z(), 0.4 * std::cos(5 * M_PI / 180), 1e-12);
+}
+
+TEST(WheelInput, BadReadingsAreRefused) {
+  WheelInput w;
+  w.configure(WheelInputParams());
+  w.add({WheelReading::speeds(1.0, 0, 0)});
+  EXPECT_THROW(w.add({WheelReading::speeds(2.0, NAN, 0)}), std::invalid_argument);
+  EXPECT_THROW(w.add({WheelReading::speeds(0.5, 1, 1)}), std::invalid_argument);  // back in time
+  EXPECT_THROW(w.add({WheelReading::angles(3.0, 1, 1)}), std::invalid_argument);  // another kind
+  WheelReading odd = WheelReading::speeds(4.0, 0, 0);
+  odd.kind = static_cast<WheelReading::Kind>(7);
+  EXPECT_THROW(w.add({odd}), std::invalid_argument);
+}
+
+TEST(WheelInput, KeyframesRestartTheMapWhileOnTheWheels) {
+  WheelInput w;
+  w.configure(WheelInputParams());
+  std::vector<int> asked;
+  for (int k = 0; k < 20; ++k) {
+    const bool visual = k < 3 || k >= 15;
+    const int features = k < 6 ? 0 : 800;  // lens covered until frame 6
+    w.frameTracked(0.1 * k, visual, features);
+    if (w.keyFrameNeeded()) asked.push_back(k);
+  }
+  // On the wheels from frame 3 to 14: none while blind, then every 5th frame, none once visual.
+  EXPECT_EQ(asked, (std::vector<int>{9, 14}));
+  EXPECT_EQ(w.wheelOnlyFrames(), 12u);
+  ASSERT_EQ(w.wheelOnlyIntervals().size(), 1u);
+  EXPECT_DOUBLE_EQ(w.wheelOnlyIntervals()[0].first, 0.3);
+  EXPECT_DOUBLE_EQ(w.wheelOnlyIntervals()[0].second, 1.4);
+  // A frame that fails alone asks for nothing; a monocular keyframe makes no points: never.
+  w.frameTracked(2.0, false, 800);
+  EXPECT_FALSE(w.keyFrameNeeded());
+  EXPECT_EQ(w.wheelOnlyIntervals().size(), 2u);
+  WheelInputParams mono;
+  mono.map_from_depth = false;
+  WheelInput m;
+  m.configure(mono);
+  for (int k = 0; k < 20; ++k) {
+    m.frameTracked(0.1 * k, false, 800);
+    EXPECT_FALSE(m.keyFrameNeeded());
+  }
+}
+
+TEST(WheelInput, ReadsRvwoKeysFromTheSettings) {
+  const auto path = rvwo::test::scratch("orbslam3_settings.yaml");
+  auto write = [&](const std::string& body) { std::ofstream(path) << "%YAML:1.0\nCamera1.fx: 400\n" << body; };
+  WheelInput w;
+  write("");  // upstream's settings: no RVWO keys, upstream behaviour
+  w.configure(path.string());
+  EXPECT_FALSE(w.active());
+  write("Sensor: \"mono\"\nOdometry.Track: 0.4\n");
+  try {
+    w.configure(path.string());
+    FAIL() << "no Camera.T_b_c";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("missing key Camera.T_b_c"), std::string::npos) << e.what();
+  }
+  write(
+      "Sensor: \"mono\"\nOdometry.Track: 0.4\nOdometry.WheelRadiusLeft: 0.05\nOdometry.WheelRadiusRight: 0.05\n"
+      "Camera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+      "   data: [0, 0, 1, 0.25, -1, 0, 0, 0, 0, -1, 0, 0.4, 0, 0, 0, 1]\n");
+  w.configure(path.string());
+  ASSERT_TRUE(w.active());
+  // 0.05 m wheels turned 2 rad: 0.1 m; turned apart by 1.6 rad: 0.2 rad about the 0.4 m track.
+  w.add({WheelReading::angles(0, 0, 0), WheelReading::angles(1, 2, 2), WheelReading::angles(2, 2 - 0.8, 2 + 0.8)});
+  EXPECT_NEAR(w.predict(Eigen::Isometry3d::Identity(), 0, 1).translation().z(), -0.1, 1e-12);
+  const Eigen::Isometry3d turn = w.predict(Eigen::Isometry3d::Identity(), 1, 2);
+  EXPECT_NEAR(Eigen::AngleAxisd(turn.linear()).angle(), 0.2, 1e-12);
+  for (int k = 0; k < 5; ++k) w.frameTracked(k, false, 1000);
+  EXPECT_FALSE(w.keyFrameNeeded());  // mono
+  write(
+      "Odometry.Track: -1\nCamera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+      "   data: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n");
+  EXPECT_THROW(w.configure(path.string()), std::invalid_argument);
+  std::filesystem::remove(path);
+}
+
+}  // namespace
