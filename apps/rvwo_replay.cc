@@ -16,6 +16,9 @@
 // peak memory, ATE with --gt) and a PNG (trajectory against ground truth, error over time).
 //
 // Ablations: --mode wheel|vo|vw, --kernel huber|fixed:<alpha>|adaptive, --no-semantics.
+// In a build given ORB_SLAM3_ROOT (a patched ORB-SLAM3 v1.0, patches/orbslam3/), --backend orbslam3
+// replays the same rawlog through ORB-SLAM3 instead: --mode vw hands it the wheel readings, --mode vo
+// does not (upstream's behaviour), for side-by-side runs.
 // Bad records (odometry going backwards or NaN, an image of the wrong size or missing) are
 // skipped with a line on stderr; a truncated or corrupt rawlog stops the replay there: what was
 // estimated so far is written, and the exit status is 1.
@@ -35,6 +38,7 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
@@ -43,6 +47,9 @@
 #include <variant>
 
 #include "rvwo/estimator/estimator.h"
+#ifdef RVWO_WITH_ORBSLAM3
+#include "rvwo/orbslam3/runner.h"
+#endif
 #include "rvwo/semantics/onnx_segmenter.h"
 #include "support/plot.h"
 #include "support/rawlog.h"
@@ -269,6 +276,122 @@ rvwo::apps::Trajectory toTrajectory(const std::vector<rvwo::estimator::PoseEstim
   return out;
 }
 
+#ifdef RVWO_WITH_ORBSLAM3
+// --backend orbslam3: ORB-SLAM3 (patched) fed like the estimator, its report in the same terms.
+class OrbSlam3Backend {
+ public:
+  OrbSlam3Backend(const rvwo::estimator::Rig& rig, const rvwo::estimator::EstimatorOptions& opt, bool wheels,
+                  const std::string& vocabulary, const std::string& out)
+      : T_b_c_(rig.T_b_c) {
+    using Sensor = rvwo::orbslam3::RunnerOptions::Sensor;
+    if (rig.rectification) throw std::invalid_argument("--backend orbslam3 takes pinhole cameras (not fisheye)");
+    rvwo::orbslam3::RunnerOptions o;
+    o.sensor = rig.sensor == rvwo::estimator::Sensor::kStereo ? Sensor::kStereo
+               : rig.sensor == rvwo::estimator::Sensor::kRgbd ? Sensor::kRgbd
+                                                              : Sensor::kMono;
+    o.vocabulary = vocabulary;
+    o.settings = fs::path(out).replace_extension(".orbslam3.yaml").string();
+    o.log = fs::path(out).replace_extension(".orbslam3.log").string();
+    rvwo::orbslam3::OrbSlam3Camera c;
+    c.fx = rig.camera->fx();
+    c.fy = rig.camera->fy();
+    c.cx = rig.camera->cx();
+    c.cy = rig.camera->cy();
+    c.width = rig.width;
+    c.height = rig.height;
+    c.fps = rig.fps;
+    c.baseline = rig.baseline;
+    rvwo::orbslam3::OrbSlam3Features f;
+    f.features = opt.features;
+    f.scale_factor = opt.scale_factor;
+    rvwo::orbslam3::WheelInputParams w;
+    w.T_b_c = rig.T_b_c;
+    w.T_b_o = rig.T_b_o.isometry3();
+    w.radius_left = opt.drive.radius_left;
+    w.radius_right = opt.drive.radius_right;
+    w.track = opt.drive.track;
+    rvwo::orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels ? &w : nullptr);
+    std::printf("rvwo-replay: ORB-SLAM3 settings %s, its console output in %s\n", o.settings.c_str(), o.log.c_str());
+    runner_ = std::make_unique<rvwo::orbslam3::Runner>(o);
+    scratch_ = fs::path(out).replace_extension(".orbslam3-").string();
+  }
+  // Frames wait for the wheel reading that reaches their time (in a rawlog it comes after them),
+  // so that ORB-SLAM3 is given the wheels up to the frame; without wheels they go at once.
+  // progress: called with each frame tracked.
+  void addWheels(const rvwo::orbslam3::WheelReading& r, const std::function<void(double, bool)>& progress) {
+    runner_->addWheels(r);
+    while (!waiting_.empty() && waiting_.front().timestamp <= r.t) {
+      const bool ok = track(waiting_.front());
+      progress(waiting_.front().timestamp, ok);
+      waiting_.pop_front();
+    }
+  }
+  void addFrame(const FrameInput& f, bool wheels, const std::function<void(double, bool)>& progress) {
+    if (wheels) {
+      waiting_.push_back(f);
+      while (waiting_.size() > 30) {  // a second of frames without wheels: go on without them
+        progress(waiting_.front().timestamp, track(waiting_.front()));
+        waiting_.pop_front();
+      }
+    } else {
+      progress(f.timestamp, track(f));
+    }
+  }
+  void flush(const std::function<void(double, bool)>& progress) {
+    for (; !waiting_.empty(); waiting_.pop_front()) progress(waiting_.front().timestamp, track(waiting_.front()));
+  }
+
+ private:
+  // Returns whether ORB-SLAM3 tracks after the frame.
+  bool track(const FrameInput& f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const bool ok = runner_->track(f.timestamp, f.image, f.right.empty() ? f.depth : f.right);
+    track_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    ++frames_;
+    if (!ok) {
+      if (lost_.empty() || lost_.back().second != last_t_) lost_.emplace_back(f.timestamp, f.timestamp);
+      lost_.back().second = f.timestamp;
+      ++lost_frames_;
+    }
+    last_t_ = f.timestamp;
+    return ok;
+  }
+
+ public:
+  // T_w_b per frame ORB-SLAM3 kept (w: the base at its first keyframe), and the report.
+  rvwo::apps::Trajectory finish(rvwo::estimator::Report* rep) {
+    const auto result = runner_->finish(scratch_);
+    rvwo::apps::Trajectory out;
+    for (const auto& [t, T_c0_c] : result.T_c0_c) out.push_back({t, T_b_c_ * T_c0_c * T_b_c_.inverse()});
+    rep->frames = frames_;
+    rep->keyframes = result.keyframes;
+    rep->wheel_only_frames = lost_frames_;  // here: frames ORB-SLAM3 did not track
+    rep->wheel_only_intervals = lost_;
+    std::vector<double> ms = track_ms_;
+    std::sort(ms.begin(), ms.end());
+    rvwo::estimator::TimingStats s;
+    s.count = ms.size();
+    if (!ms.empty()) {
+      for (double m : ms) s.mean += m / ms.size();
+      s.p95 = ms[std::min(ms.size() - 1, std::size_t(0.95 * ms.size()))];
+      s.max = ms.back();
+    }
+    rep->timings = {{"TrackFrame", s}};
+    return out;
+  }
+
+ private:
+  Eigen::Isometry3d T_b_c_;
+  std::unique_ptr<rvwo::orbslam3::Runner> runner_;
+  std::string scratch_;
+  std::size_t frames_ = 0, lost_frames_ = 0;
+  double last_t_ = NAN;
+  std::vector<std::pair<double, double>> lost_;
+  std::vector<double> track_ms_;
+  std::deque<FrameInput> waiting_;
+};
+#endif
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -307,6 +430,16 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<std::string> align_arg("", "align", "ATE alignment: se3 (default), sim3, posyaw, none", false,
                                            "se3", "se3|...", cmd);
     TCLAP::SwitchArg quiet("", "quiet", "no progress line", cmd);
+#ifdef RVWO_WITH_ORBSLAM3
+    TCLAP::ValueArg<std::string> backend_arg(
+        "", "backend",
+        "rvwo (default): RVWO's estimator; orbslam3: the patched ORB-SLAM3 this build was given (--mode vw: with "
+        "the wheels, vo: without, as upstream; --kernel and semantics do not apply to it yet)",
+        false, "rvwo", "rvwo|orbslam3", cmd);
+    TCLAP::ValueArg<std::string> vocabulary_arg(
+        "", "vocabulary", "ORB-SLAM3's DBoW2 vocabulary, text (--backend orbslam3; rvwo-orbslam3-vocab makes one)",
+        false, "", "voc.txt", cmd);
+#endif
     cmd.parse(argc, argv);
     FLAGS_minloglevel = 2;
 
@@ -350,6 +483,19 @@ int main(int argc, char** argv) {
     if (odometry_input == "encoders" && !(ticks_per_rev > 0))
       throw std::invalid_argument(settings.path() + ": missing key Odometry.TicksPerRevolution (for encoders)");
     if (rig.sensor == rvwo::estimator::Sensor::kRgbd) rig.depth_factor = 1.0;  // the reader gives metres
+    bool use_orbslam3 = false;
+#ifdef RVWO_WITH_ORBSLAM3
+    if (backend_arg.getValue() == "orbslam3") {
+      use_orbslam3 = true;
+      if (opt.mode == rvwo::estimator::Mode::kWheel)
+        throw std::invalid_argument("--backend orbslam3 takes --mode vw or vo (wheel: --backend rvwo)");
+      if (vocabulary_arg.getValue().empty())
+        throw std::invalid_argument("--backend orbslam3 needs --vocabulary (rvwo-orbslam3-vocab makes one)");
+      opt.semantics = false;
+    } else if (backend_arg.getValue() != "rvwo") {
+      throw std::invalid_argument("--backend must be rvwo or orbslam3, not '" + backend_arg.getValue() + "'");
+    }
+#endif
 
     // ---- segmentation ----
     std::shared_ptr<rvwo::Segmenter> segmenter;
@@ -377,7 +523,14 @@ int main(int argc, char** argv) {
         settings.text("Rawlog.CameraLabel").value_or(rig.sensor == rvwo::estimator::Sensor::kRgbd ? "RGBD" : "CAMERA");
     const std::string odometry_label = settings.text("Rawlog.OdometryLabel").value_or("ODOMETRY");
     const std::string labels_label = settings.text("Rawlog.LabelsLabel").value_or("LABELS");
-    rvwo::estimator::Estimator estimator(rig, opt, segmenter);
+    std::unique_ptr<rvwo::estimator::Estimator> estimator;
+#ifdef RVWO_WITH_ORBSLAM3
+    std::unique_ptr<OrbSlam3Backend> orbslam3;
+    if (use_orbslam3)
+      orbslam3 = std::make_unique<OrbSlam3Backend>(rig, opt, opt.mode == rvwo::estimator::Mode::kVw,
+                                                   vocabulary_arg.getValue(), out_arg.getValue());
+#endif
+    if (!use_orbslam3) estimator = std::make_unique<rvwo::estimator::Estimator>(rig, opt, segmenter);
     Prefetcher reader(rawlog_arg.getValue(), camera_label, odometry_label, rawlog_labels ? labels_label : "",
                       opt.mode != rvwo::estimator::Mode::kWheel);
     const bool tty = isatty(fileno(stderr)) && !quiet.getValue();
@@ -385,7 +538,7 @@ int main(int argc, char** argv) {
     auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
     double first_t = NAN, last_t = NAN, last_progress = -1;
     std::size_t frames = 0, odometry_count = 0, skipped = 0;
-    estimator.setFrameCallback([&](const rvwo::estimator::PoseEstimate& p) {
+    auto progress = [&](const rvwo::estimator::PoseEstimate& p) {
       ++frames;
       if (quiet.getValue()) return;
       const double el = elapsed();
@@ -393,8 +546,17 @@ int main(int argc, char** argv) {
       last_progress = el;
       std::fprintf(stderr, "%srvwo-replay: t = %.1f s, %zu frames, %.1f frames/s (%.1fx real time), pose %s%s",
                    tty ? "\r" : "", p.timestamp - first_t, frames, frames / el, (p.timestamp - first_t) / el,
-                   p.visual ? "visual     " : "wheels only", tty ? "  " : "\n");
-    });
+                   p.visual ? "visual     " : (use_orbslam3 ? "lost       " : "wheels only"), tty ? "  " : "\n");
+    };
+    if (estimator) estimator->setFrameCallback(progress);
+#ifdef RVWO_WITH_ORBSLAM3
+    auto orbslam3_progress = [&](double t, bool tracked) {
+      rvwo::estimator::PoseEstimate p;
+      p.timestamp = t;
+      p.visual = tracked;
+      progress(p);
+    };
+#endif
     auto skip = [&](const std::string& why) {
       ++skipped;
       if (skipped <= 10) std::fprintf(stderr, "%srvwo-replay: skipped %s\n", tty ? "\n" : "", why.c_str());
@@ -407,7 +569,10 @@ int main(int argc, char** argv) {
     auto flush = [&] {
       if (!held) return;
       try {
-        estimator.addFrame(*held);
+#ifdef RVWO_WITH_ORBSLAM3
+        if (orbslam3) orbslam3->addFrame(*held, opt.mode == rvwo::estimator::Mode::kVw, orbslam3_progress);
+#endif
+        if (estimator) estimator->addFrame(*held);
       } catch (const std::invalid_argument& ex) {
         skip("frame at t = " + std::to_string(held->timestamp) + ": " + ex.what());
       }
@@ -435,14 +600,29 @@ int main(int argc, char** argv) {
               q_left0 = o->ticks_left;
               q_right0 = o->ticks_right;
             }
-            estimator.addWheelAngles(o->t, (o->ticks_left - q_left0) * k, (o->ticks_right - q_right0) * k);
+            const double ql = (o->ticks_left - q_left0) * k, qr = (o->ticks_right - q_right0) * k;
+#ifdef RVWO_WITH_ORBSLAM3
+            if (orbslam3) orbslam3->addWheels(rvwo::orbslam3::WheelReading::angles(o->t, ql, qr), orbslam3_progress);
+#endif
+            if (estimator) estimator->addWheelAngles(o->t, ql, qr);
           } else if (odometry_input == "velocities") {
             if (!o->has_velocities) throw std::invalid_argument("no velocities (Odometry.Input is velocities)");
             const double b = opt.drive.track;
-            estimator.addWheelSpeeds(o->t, (o->v - o->omega * b / 2) / opt.drive.radius_left,
-                                     (o->v + o->omega * b / 2) / opt.drive.radius_right);
+            const double wl = (o->v - o->omega * b / 2) / opt.drive.radius_left,
+                         wr = (o->v + o->omega * b / 2) / opt.drive.radius_right;
+#ifdef RVWO_WITH_ORBSLAM3
+            if (orbslam3) orbslam3->addWheels(rvwo::orbslam3::WheelReading::speeds(o->t, wl, wr), orbslam3_progress);
+#endif
+            if (estimator) estimator->addWheelSpeeds(o->t, wl, wr);
           } else {
-            estimator.addOdometryPose(o->t, o->pose);
+#ifdef RVWO_WITH_ORBSLAM3
+            if (orbslam3) {
+              orbslam3->addWheels(rvwo::orbslam3::WheelReading::pose(o->t, o->pose.translation().x(),
+                                                                     o->pose.translation().y(), o->pose.angle()),
+                                  orbslam3_progress);
+            }
+#endif
+            if (estimator) estimator->addOdometryPose(o->t, o->pose);
           }
         } catch (const std::invalid_argument& ex) {
           skip("odometry at t = " + std::to_string(o->t) + ": " + ex.what());
@@ -452,14 +632,31 @@ int main(int argc, char** argv) {
       }
     }
     flush();
+#ifdef RVWO_WITH_ORBSLAM3
+    if (orbslam3) orbslam3->flush(orbslam3_progress);
+#endif
     const std::string read_error = reader.error();
-    estimator.finish();
+    rvwo::estimator::Report rep;
+    rvwo::apps::Trajectory est;
+    std::vector<bool> on_wheels;  // per pose of est: it followed the wheels
+    if (estimator) {
+      estimator->finish();
+      const auto poses = estimator->trajectory();
+      est = toTrajectory(poses);
+      for (const auto& p : poses) on_wheels.push_back(!p.visual && opt.mode != rvwo::estimator::Mode::kWheel);
+      rep = estimator->report();
+    }
+#ifdef RVWO_WITH_ORBSLAM3
+    if (orbslam3) {
+      est = orbslam3->finish(&rep);
+      on_wheels.assign(est.size(), false);  // ORB-SLAM3 does not say which
+    }
+#endif
     const double wall = elapsed();
     if (tty) std::fprintf(stderr, "\n");
 
     // ---- output ----
-    const auto poses = estimator.trajectory();
-    if (poses.empty())
+    if (frames == 0)
       throw std::runtime_error(rawlog_arg.getValue() + ": no camera frames (sensor label '" + camera_label +
                                "'; Rawlog.CameraLabel names another)" + (read_error.empty() ? "" : "; " + read_error));
     if (opt.mode != rvwo::estimator::Mode::kVo && odometry_count == 0)
@@ -467,30 +664,40 @@ int main(int argc, char** argv) {
                                "'): --mode vo runs without it");
     if (rawlog_labels && !rawlog_labels->any() && seg == "rawlog")
       throw std::runtime_error(rawlog_arg.getValue() + ": no label images (sensor label '" + labels_label + "')");
-    const rvwo::apps::Trajectory est = toTrajectory(poses);
+    if (est.empty()) throw std::runtime_error("ORB-SLAM3 kept no pose (its log: the --out file with .orbslam3.log)");
     rvwo::apps::writeTum(out_arg.getValue(), est);
-    const rvwo::estimator::Report rep = estimator.report();
     const double seq_s = last_t - first_t;
-    std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog_arg.getValue().c_str(), mode.c_str(),
-                kernel.c_str(), seg_name.c_str());
-    std::printf(
-        "  frames %zu over %.1f s, keyframes %zu, map points made %zu (rejected by the kernel: %zu), segmented "
-        "keyframes %zu\n",
-        rep.frames, seq_s, rep.keyframes, rep.map_points_created, rep.map_points_rejected, rep.segmented_keyframes);
+    if (use_orbslam3) {
+      std::printf(
+          "rvwo-replay: %s, ORB-SLAM3 (patched), %s\n", rawlog_arg.getValue().c_str(),
+          opt.mode == rvwo::estimator::Mode::kVw ? "with the wheels" : "without the wheels (upstream behaviour)");
+      std::printf("  frames %zu over %.1f s, keyframes %zu, poses kept %zu\n", rep.frames, seq_s, rep.keyframes,
+                  est.size());
+    } else {
+      std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog_arg.getValue().c_str(), mode.c_str(),
+                  kernel.c_str(), seg_name.c_str());
+    }
+    if (!use_orbslam3)
+      std::printf(
+          "  frames %zu over %.1f s, keyframes %zu, map points made %zu (rejected by the kernel: %zu), segmented "
+          "keyframes %zu\n",
+          rep.frames, seq_s, rep.keyframes, rep.map_points_created, rep.map_points_rejected, rep.segmented_keyframes);
     if (rawlog_labels) {
       const auto [failed, first] = rawlog_labels->failures();
       if (failed > 0)
         std::printf("  label images that could not be read: %zu (their keyframes went unlabelled; first: %s)\n", failed,
                     first.c_str());
     }
-    std::printf("  frames on wheels only: %zu", rep.wheel_only_frames);
+    std::printf(
+        use_orbslam3 ? "  frames ORB-SLAM3 did not track (lost, not initialised): %zu" : "  frames on wheels only: %zu",
+        rep.wheel_only_frames);
     for (std::size_t i = 0; i < rep.wheel_only_intervals.size() && i < 8; ++i) {
       std::printf("%s%.2f-%.2f s", i ? ", " : " (", rep.wheel_only_intervals[i].first - first_t,
                   rep.wheel_only_intervals[i].second - first_t);
     }
     if (rep.wheel_only_intervals.size() > 8) std::printf(", ... %zu stretches", rep.wheel_only_intervals.size());
     std::printf("%s\n", rep.wheel_only_intervals.empty() ? "" : ")");
-    if (opt.mode == rvwo::estimator::Mode::kVw) {
+    if (opt.mode == rvwo::estimator::Mode::kVw && !use_orbslam3) {
       std::printf(
           "  frames where vision overruled the wheels (a slip): %zu; wheel edges local BA found wrong: %zu; "
           "relocalised: %zu\n",
@@ -534,18 +741,20 @@ int main(int argc, char** argv) {
       for (std::size_t k = 0; k < pairs.size(); ++k) {
         gt_xy.push_back(a.ref[k].head<2>());
         est_xy.push_back(a.est_aligned[k].head<2>());
-        if (!poses[pairs[k].second].visual && opt.mode != rvwo::estimator::Mode::kWheel)
-          wheel_xy.push_back(a.est_aligned[k].head<2>());
+        if (on_wheels[pairs[k].second]) wheel_xy.push_back(a.est_aligned[k].head<2>());
         err_t.emplace_back(a.t[k] - first_t, a.errors[k]);
       }
     } else {
-      for (const auto& p : poses) {
-        est_xy.push_back(p.T_w_b.translation());
-        if (!p.visual && opt.mode != rvwo::estimator::Mode::kWheel) wheel_xy.push_back(p.T_w_b.translation());
+      for (std::size_t k = 0; k < est.size(); ++k) {
+        est_xy.push_back(est[k].T.translation().head<2>());
+        if (on_wheels[k]) wheel_xy.push_back(est_xy.back());
       }
     }
-    traj_plot = std::make_unique<rvwo::apps::Plot>("rvwo-replay: " + mode + ", " + kernel + " (from above)", "x [m]",
-                                                   "y [m]", true);
+    const std::string title = use_orbslam3 ? "rvwo-replay: ORB-SLAM3, " +
+                                                 std::string(opt.mode == rvwo::estimator::Mode::kVw ? "with" : "no") +
+                                                 " wheels (from above)"
+                                           : "rvwo-replay: " + mode + ", " + kernel + " (from above)";
+    traj_plot = std::make_unique<rvwo::apps::Plot>(title, "x [m]", "y [m]", true);
     if (!gt_xy.empty()) traj_plot->add(gt_xy, mrpt::img::TColor(0, 0, 0), "ground truth");
     traj_plot->add(est_xy, mrpt::img::TColor(0, 150, 60), "estimate" + std::string(gt_xy.empty() ? "" : " (aligned)"));
     if (!wheel_xy.empty()) traj_plot->add(wheel_xy, mrpt::img::TColor(230, 120, 0), "wheels only", 0);

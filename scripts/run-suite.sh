@@ -1,18 +1,24 @@
 #!/usr/bin/env bash
 # Replays every sequence of the scenario suite (out/suite/<name>/, made by make-suite.sh) with
 # rvwo-replay in each mode and kernel, and prints the table: ATE RMSE (se3), % of the path, speed.
-#   bash scripts/run-suite.sh [--deterministic] [--suite DIR] [names...]
+#   bash scripts/run-suite.sh [--deterministic] [--suite DIR] [--orbslam3 VOC [--build B]] [names...]
 # DIR: where the sequences are (default out/suite; e.g. out/suite-rgbd made with make-suite.sh
 # --camera rgbd --out out/suite-rgbd). Trajectories, reports and plots go to
 # DIR-runs/<name>/<mode>-<kernel>.{txt,log,png} (out/suite-runs/... by default).
+# --orbslam3 VOC: the patched ORB-SLAM3 instead (rvwo-replay --backend orbslam3, from build dir B,
+# default build, configured with ORB_SLAM3_ROOT; VOC its vocabulary), without the wheels (vo, as
+# upstream) and with them (vw). "wheels" is then the frames ORB-SLAM3 did not track, "poses" the
+# frames it kept a pose for (the ATE is over those).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
-flags=() names=() suite=out/suite
+flags=() names=() suite=out/suite voc="" build=build
 while [ $# -gt 0 ]; do
   case "$1" in
     --deterministic) flags+=("$1"); shift ;;
     --suite) suite=${2%/}; shift 2 ;;
+    --orbslam3) voc=$2; shift 2 ;;
+    --build) build=${2%/}; shift 2 ;;
     -*) echo "run-suite: unknown option $1" >&2; exit 2 ;;
     *) names+=("$1"); shift ;;
   esac
@@ -21,22 +27,30 @@ if [ ${#names[@]} -eq 0 ]; then
   for d in "$suite"/*/; do [ -f "$d/sequence.rawlog" ] && names+=("$(basename "$d")"); done
 fi
 [ ${#names[@]} -gt 0 ] || { echo "run-suite: no sequences in $suite (bash scripts/make-suite.sh makes them)" >&2; exit 2; }
-cmake --build build --target rvwo-replay >/dev/null
-printf '%-12s %-16s %10s %8s %10s %8s\n' scenario run "ATE [m]" "% path" "x realtime" "wheels"
+cmake --build "$build" --target rvwo-replay >/dev/null
+runs=(wheel vo:huber vw:huber vw:adaptive)
+[ -n "$voc" ] && runs=(orbslam3-vo orbslam3-vw)
+printf '%-12s %-16s %10s %8s %10s %8s %7s\n' scenario run "ATE [m]" "% path" "x realtime" "wheels" poses
 for n in "${names[@]}"; do
   seq="$suite/$n" out="$suite-runs/$n"
   mkdir -p "$out"
-  for run in wheel vo:huber vw:huber vw:adaptive; do
-    mode=${run%%:*} kernel=${run#*:}
+  for run in "${runs[@]}"; do
+    mode=${run%%:*} kernel=${run#*:} extra=()
     [ "$mode" = wheel ] && kernel=huber
     name="$mode-$kernel"
-    if ./build/apps/rvwo-replay --quiet "${flags[@]}" --settings "$seq/settings.yaml" --rawlog "$seq/sequence.rawlog" \
+    if [ -n "$voc" ]; then
+      mode=${run#orbslam3-} kernel=huber name=$run extra=(--backend orbslam3 --vocabulary "$voc")
+    fi
+    if "./$build/apps/rvwo-replay" --quiet "${flags[@]}" "${extra[@]}" --settings "$seq/settings.yaml" --rawlog "$seq/sequence.rawlog" \
       --gt "$seq/groundtruth.txt" --mode "$mode" --kernel "$kernel" --out "$out/$name.txt" >"$out/$name.log" 2>&1; then
       awk -v s="$n" -v r="$name" '
         /ATE \(se3\)/ { ate = $4; pct = $7 }
         /speed:/ { for (i = 1; i <= NF; ++i) if ($i ~ /x$/ && $(i+1) == "real") rt = $i }
+        /^  frames [0-9]/ { poses = $2 }
+        /poses kept/ { poses = $NF }
         /frames on wheels only/ { w = $5 }
-        END { printf "%-12s %-16s %10s %8s %10s %8s\n", s, r, ate, pct, rt, w }' "$out/$name.log"
+        /did not track/ { sub(/.*initialised\): /, ""); w = $1 }
+        END { printf "%-12s %-16s %10s %8s %10s %8s %7s\n", s, r, ate, pct, rt, w, poses }' "$out/$name.log"
     else
       printf '%-12s %-16s failed: %s\n' "$n" "$name" "$(tail -1 "$out/$name.log")"
     fi
