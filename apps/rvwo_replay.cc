@@ -34,7 +34,9 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -277,6 +279,15 @@ rvwo::apps::Trajectory toTrajectory(const std::vector<rvwo::estimator::PoseEstim
 }
 
 #ifdef RVWO_WITH_ORBSLAM3
+// ORB-SLAM3 aborts on some failures (Sophus's checks, e.g. "SO3::exp failed" on a NaN pose):
+// one line saying so instead of a bare "Aborted".
+char g_abort_message[1024];
+extern "C" void orbslam3Aborted(int) {
+  const ssize_t n = ::write(STDERR_FILENO, g_abort_message, std::strlen(g_abort_message));
+  (void)n;
+  std::_Exit(1);
+}
+
 // --backend orbslam3: ORB-SLAM3 (patched) fed like the estimator, its report in the same terms.
 class OrbSlam3Backend {
  public:
@@ -312,6 +323,10 @@ class OrbSlam3Backend {
     w.track = opt.drive.track;
     rvwo::orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels ? &w : nullptr);
     std::printf("rvwo-replay: ORB-SLAM3 settings %s, its console output in %s\n", o.settings.c_str(), o.log.c_str());
+    std::snprintf(g_abort_message, sizeof g_abort_message,
+                  "\nrvwo-replay: error: ORB-SLAM3 aborted (its last words are in %s); no trajectory written\n",
+                  o.log.c_str());
+    std::signal(SIGABRT, orbslam3Aborted);
     runner_ = std::make_unique<rvwo::orbslam3::Runner>(o);
     scratch_ = fs::path(out).replace_extension(".orbslam3-").string();
   }
