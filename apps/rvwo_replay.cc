@@ -356,23 +356,6 @@ class OrbSlam3Backend {
     for (; !waiting_.empty(); waiting_.pop_front()) progress(waiting_.front().timestamp, track(waiting_.front()));
   }
 
- private:
-  // Returns whether ORB-SLAM3 tracks after the frame.
-  bool track(const FrameInput& f) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const bool ok = runner_->track(f.timestamp, f.image, f.right.empty() ? f.depth : f.right);
-    track_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    ++frames_;
-    if (!ok) {
-      if (lost_.empty() || lost_.back().second != last_t_) lost_.emplace_back(f.timestamp, f.timestamp);
-      lost_.back().second = f.timestamp;
-      ++lost_frames_;
-    }
-    last_t_ = f.timestamp;
-    return ok;
-  }
-
- public:
   // T_w_b per frame ORB-SLAM3 kept (w: the base at its first keyframe), and the report.
   rvwo::apps::Trajectory finish(rvwo::estimator::Report* rep) {
     const auto result = runner_->finish(scratch_);
@@ -396,6 +379,21 @@ class OrbSlam3Backend {
   }
 
  private:
+  // Returns whether ORB-SLAM3 tracks after the frame.
+  bool track(const FrameInput& f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const bool ok = runner_->track(f.timestamp, f.image, f.right.empty() ? f.depth : f.right);
+    track_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    ++frames_;
+    if (!ok) {
+      if (lost_.empty() || lost_.back().second != last_t_) lost_.emplace_back(f.timestamp, f.timestamp);
+      lost_.back().second = f.timestamp;
+      ++lost_frames_;
+    }
+    last_t_ = f.timestamp;
+    return ok;
+  }
+
   Eigen::Isometry3d T_b_c_;
   std::unique_ptr<rvwo::orbslam3::Runner> runner_;
   std::string scratch_;
