@@ -18,28 +18,11 @@
 #include <chrono>
 #include <cstdio>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
 
 #include "rvwo/orbslam3/runner.h"
 #include "support/rawlog.h"
-
-namespace {
-
-cv::Mat grey(const mrpt::img::CImage& image) {
-  if (image.isExternallyStored()) {
-    const std::string path = image.getExternalStorageFileAbsolutePath();
-    cv::Mat m = cv::imread(path, cv::IMREAD_GRAYSCALE);
-    if (m.empty()) throw std::runtime_error("cannot read image " + path);
-    return m;
-  }
-  cv::Mat m = image.asCvMat<cv::Mat>(mrpt::img::SHALLOW_COPY).clone();
-  if (m.channels() == 3) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
-  return m;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   try {
@@ -72,11 +55,12 @@ int main(int argc, char** argv) {
           continue;
         if (seen++ % every.getValue() != 0) continue;
         if (auto st = std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(obs)) {
-          images.push_back(grey(st->imageLeft));
+          images.push_back(rvwo::apps::loadImage(st->imageLeft, cv::IMREAD_GRAYSCALE));
         } else if (auto rgbd = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(obs)) {
-          if (rgbd->hasIntensityImage) images.push_back(grey(rgbd->intensityImage));
+          if (rgbd->hasIntensityImage)
+            images.push_back(rvwo::apps::loadImage(rgbd->intensityImage, cv::IMREAD_GRAYSCALE));
         } else if (auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs)) {
-          images.push_back(grey(im->image));
+          images.push_back(rvwo::apps::loadImage(im->image, cv::IMREAD_GRAYSCALE));
         }
       }
       std::fprintf(stderr, "rvwo-orbslam3-vocab: %s: %zu camera frames, %zu images so far\n", path.c_str(), seen,

@@ -62,15 +62,7 @@ namespace {
 namespace fs = std::filesystem;
 using rvwo::estimator::FrameInput;
 
-cv::Mat loadImage(const mrpt::img::CImage& image, int flags) {
-  if (image.isExternallyStored()) {
-    const std::string path = image.getExternalStorageFileAbsolutePath();
-    cv::Mat m = cv::imread(path, flags);
-    if (m.empty()) throw std::runtime_error("cannot read image " + path);
-    return m;
-  }
-  return image.asCvMat<cv::Mat>(mrpt::img::SHALLOW_COPY).clone();
-}
+using rvwo::apps::loadImage;
 
 // Label images that came in the rawlog (sensor LABELS), served by timestamp: the simulator's
 // ground truth or a dataset's masks, through the same Segmenter interface as a network. Decoded
@@ -361,20 +353,11 @@ class OrbSlam3Backend {
     const auto result = runner_->finish(scratch_);
     rvwo::apps::Trajectory out;
     for (const auto& [t, T_c0_c] : result.T_c0_c) out.push_back({t, T_b_c_ * T_c0_c * T_b_c_.inverse()});
-    rep->frames = frames_;
+    rep->frames = track_ms_.size();
     rep->keyframes = result.keyframes;
     rep->wheel_only_frames = lost_frames_;  // here: frames ORB-SLAM3 did not track
     rep->wheel_only_intervals = lost_;
-    std::vector<double> ms = track_ms_;
-    std::sort(ms.begin(), ms.end());
-    rvwo::estimator::TimingStats s;
-    s.count = ms.size();
-    if (!ms.empty()) {
-      for (double m : ms) s.mean += m / ms.size();
-      s.p95 = ms[std::min(ms.size() - 1, std::size_t(0.95 * ms.size()))];
-      s.max = ms.back();
-    }
-    rep->timings = {{"TrackFrame", s}};
+    rep->timings = {{"TrackFrame", rvwo::estimator::TimingStats::of(track_ms_)}};
     return out;
   }
 
@@ -384,7 +367,6 @@ class OrbSlam3Backend {
     const auto t0 = std::chrono::steady_clock::now();
     const bool ok = runner_->track(f.timestamp, f.image, f.right.empty() ? f.depth : f.right);
     track_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    ++frames_;
     if (!ok) {
       if (lost_.empty() || lost_.back().second != last_t_) lost_.emplace_back(f.timestamp, f.timestamp);
       lost_.back().second = f.timestamp;
@@ -397,7 +379,7 @@ class OrbSlam3Backend {
   Eigen::Isometry3d T_b_c_;
   std::unique_ptr<rvwo::orbslam3::Runner> runner_;
   std::string scratch_;
-  std::size_t frames_ = 0, lost_frames_ = 0;
+  std::size_t lost_frames_ = 0;
   double last_t_ = NAN;
   std::vector<std::pair<double, double>> lost_;
   std::vector<double> track_ms_;

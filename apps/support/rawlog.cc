@@ -7,6 +7,8 @@
 #include <mrpt/serialization/CArchive.h>
 
 #include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace rvwo::apps {
 
@@ -65,6 +67,22 @@ std::optional<mrpt::obs::CObservation::Ptr> RawlogReader::next() {
   pending_.pop_front();
   ++count_;
   return obs;
+}
+
+cv::Mat loadImage(const mrpt::img::CImage& image, int flags) {
+  if (image.isExternallyStored()) {
+    const std::string path = image.getExternalStorageFileAbsolutePath();
+    cv::Mat m = cv::imread(path, flags);
+    if (m.empty()) throw std::runtime_error("cannot read image " + path);
+    return m;
+  }
+  cv::Mat m = image.asCvMat<cv::Mat>(mrpt::img::SHALLOW_COPY);
+  if (flags == cv::IMREAD_GRAYSCALE && m.channels() == 3) {
+    cv::Mat grey;
+    cv::cvtColor(m, grey, cv::COLOR_BGR2GRAY);  // CImage keeps colour as OpenCV does, BGR
+    return grey;
+  }
+  return m.clone();
 }
 
 }  // namespace rvwo::apps

@@ -8,12 +8,14 @@
 // (CRawlog::detectImagesDirectory is broken in MRPT 2.5.8).
 #pragma once
 
+#include <mrpt/img/CImage.h>
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/obs/CObservation.h>
 
 #include <deque>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -62,5 +64,10 @@ class RawlogReader {
   std::size_t count_ = 0;
   std::deque<mrpt::obs::CObservation::Ptr> pending_;  // from a sensory frame, flattened
 };
+
+// A rawlog image as OpenCV reads it: an external file decoded with cv::imread flags (throws
+// std::runtime_error "cannot read image <path>" when it cannot be), an image stored in the rawlog
+// copied; cv::IMREAD_GRAYSCALE gives one channel either way.
+cv::Mat loadImage(const mrpt::img::CImage& image, int flags);
 
 }  // namespace rvwo::apps

@@ -13,6 +13,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "../common/temp.h"
 
@@ -199,4 +201,37 @@ TEST(Rawlog, CorruptBytesAndMissingFileGetClearErrors) {
 }
 
 }  // namespace
+// The one image loader the apps share: in the rawlog or beside it, grey when asked, one clear
+// line when the file is missing.
+TEST(Rawlog, ImagesLoadGreyWhenAskedWhereverTheyAreStored) {
+  const fs::path dir = fresh("rvwo_rawlog_images");
+  cv::Mat bgr(4, 6, CV_8UC3);
+  for (int r = 0; r < bgr.rows; ++r)
+    for (int c = 0; c < bgr.cols; ++c) bgr.at<cv::Vec3b>(r, c) = cv::Vec3b(10 * c, 40 * r, 200 - 20 * c);
+  cv::Mat expected;
+  cv::cvtColor(bgr, expected, cv::COLOR_BGR2GRAY);
+
+  mrpt::img::CImage inside;
+  inside.loadFromMemoryBuffer(bgr.cols, bgr.rows, true, bgr.data);  // BGR, as CImage keeps colour
+  const cv::Mat grey = rvwo::apps::loadImage(inside, cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(grey.type(), CV_8UC1);
+  EXPECT_EQ(cv::norm(grey, expected, cv::NORM_INF), 0);
+  EXPECT_EQ(rvwo::apps::loadImage(inside, cv::IMREAD_UNCHANGED).channels(), 3);
+
+  const fs::path png = dir / "im.png";
+  ASSERT_TRUE(cv::imwrite(png.string(), bgr));
+  mrpt::img::CImage outside;
+  outside.setExternalStorage(png.string());
+  // libpng's own grey conversion rounds differently from cvtColor's.
+  EXPECT_LE(cv::norm(rvwo::apps::loadImage(outside, cv::IMREAD_GRAYSCALE), expected, cv::NORM_INF), 1);
+  mrpt::img::CImage missing;
+  missing.setExternalStorage((dir / "none.png").string());
+  try {
+    rvwo::apps::loadImage(missing, cv::IMREAD_GRAYSCALE);
+    FAIL() << "no error for a missing image";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot read image"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace rvwo::apps

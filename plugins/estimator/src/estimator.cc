@@ -188,20 +188,7 @@ class Timings {
   std::vector<std::pair<std::string, TimingStats>> stats() const {
     std::lock_guard<std::mutex> lock(mutex_);
     std::vector<std::pair<std::string, TimingStats>> out;
-    for (const auto& [name, v] : stages_) {
-      TimingStats s;
-      s.count = v.size();
-      if (!v.empty()) {
-        std::vector<double> sorted = v;
-        std::sort(sorted.begin(), sorted.end());
-        double sum = 0;
-        for (double x : v) sum += x;
-        s.mean = sum / v.size();
-        s.p95 = sorted[std::min(sorted.size() - 1, static_cast<std::size_t>(0.95 * sorted.size()))];
-        s.max = sorted.back();
-      }
-      out.emplace_back(name, s);
-    }
+    for (const auto& [name, v] : stages_) out.emplace_back(name, TimingStats::of(v));
     return out;
   }
 
@@ -213,6 +200,19 @@ class Timings {
 }  // namespace
 
 double Rig::bf() const { return baseline * camera->fx(); }
+
+TimingStats TimingStats::of(std::vector<double> ms) {
+  TimingStats s;
+  s.count = ms.size();
+  if (ms.empty()) return s;
+  std::sort(ms.begin(), ms.end());
+  double sum = 0;
+  for (double x : ms) sum += x;
+  s.mean = sum / ms.size();
+  s.p95 = ms[std::min(ms.size() - 1, static_cast<std::size_t>(0.95 * ms.size()))];
+  s.max = ms.back();
+  return s;
+}
 
 void EstimatorOptions::validate() const {
   auto fail = [](const std::string& what) { throw std::invalid_argument("estimator options: " + what); };

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -105,19 +106,18 @@ std::size_t buildVocabulary(const std::vector<cv::Mat>& images, const OrbSlam3Fe
   ORB_SLAM3::ORBVocabulary vocabulary(k, L, DBoW2::TF_IDF, DBoW2::L1_NORM);
   vocabulary.create(training);
   vocabulary.saveToTextFile(path);
-  // DBoW2's loadFromTextFile reads a last, empty word when the file ends with a newline.
-  std::string text;
-  {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error("cannot write " + path);
-    std::ostringstream s;
-    s << in.rdbuf();
-    text = s.str();
+  // DBoW2's loadFromTextFile reads a last, empty word when the file ends with a newline (every
+  // line saveToTextFile writes ends with one): cut it.
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in || in.tellg() <= 0) throw std::runtime_error("cannot write " + path);
+  const auto size = static_cast<std::uintmax_t>(in.tellg());
+  in.seekg(-1, std::ios::end);
+  if (in.get() == '\n') {
+    in.close();
+    std::error_code error;
+    std::filesystem::resize_file(path, size - 1, error);
+    if (error) throw std::runtime_error("cannot write " + path + ": " + error.message());
   }
-  while (!text.empty() && text.back() == '\n') text.pop_back();
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  if (!out.flush()) throw std::runtime_error("cannot write " + path);
   return vocabulary.size();
 }
 
@@ -156,24 +156,17 @@ void Runner::addWheels(const WheelReading& r) { impl_->wheels.push_back(r); }
 
 bool Runner::track(double t, const cv::Mat& image, const cv::Mat& right_or_depth) {
   ORB_SLAM3::System& s = *impl_->system;
+  // The wheel overloads (patch 0002), with or without readings: without, ORB-SLAM3 tracks as
+  // upstream.
   switch (impl_->options.sensor) {
     case RunnerOptions::Sensor::kStereo:
-      if (impl_->wheels.empty())
-        s.TrackStereo(image, right_or_depth, t);
-      else
-        s.TrackStereo(image, right_or_depth, t, impl_->wheels);
+      s.TrackStereo(image, right_or_depth, t, impl_->wheels);
       break;
     case RunnerOptions::Sensor::kRgbd:
-      if (impl_->wheels.empty())
-        s.TrackRGBD(image, right_or_depth, t);
-      else
-        s.TrackRGBD(image, right_or_depth, t, impl_->wheels);
+      s.TrackRGBD(image, right_or_depth, t, impl_->wheels);
       break;
     case RunnerOptions::Sensor::kMono:
-      if (impl_->wheels.empty())
-        s.TrackMonocular(image, t);
-      else
-        s.TrackMonocular(image, t, impl_->wheels);
+      s.TrackMonocular(image, t, impl_->wheels);
       break;
   }
   impl_->wheels.clear();

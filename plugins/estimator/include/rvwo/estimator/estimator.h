@@ -49,6 +49,8 @@ struct FrameInput {
 struct TimingStats {  // ms
   double mean = 0, p95 = 0, max = 0;
   std::size_t count = 0;
+  // Of a stage's durations, ms (none: all zero).
+  static TimingStats of(std::vector<double> ms);
 };
 
 struct Report {
