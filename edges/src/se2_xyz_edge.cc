@@ -1,6 +1,7 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 #include "rvwo/edges/se2_xyz_edge.h"
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <stdexcept>
 
@@ -95,6 +96,15 @@ typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::covariance(const Eigen::Vector
   cov += A * noise.sigma_rollpitch * A.transpose();
   cov += noise.sigma_z * noise.sigma_z * b * b.transpose();
   return cov;
+}
+
+template <int N>
+typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::sqrtInformation(const Eigen::Vector3d& x_w_b,
+                                                                  const Eigen::Vector3d& P_w, double sigma_px,
+                                                                  const OutOfPlaneNoise& noise) const {
+  const Eigen::LLT<Covariance> llt(covariance(x_w_b, P_w, sigma_px, noise));
+  // Sigma = L L^T, so S = L^-1 whitens: S^T S = Sigma^-1.
+  return llt.matrixL().solve(Covariance::Identity());
 }
 
 template class Se2XyzEdge<2>;

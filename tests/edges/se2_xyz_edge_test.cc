@@ -139,6 +139,11 @@ void monteCarloInflation(unsigned seed) {
     EXPECT_NEAR(
         (edge.covariance(x, P_w, 2.0, noise) - predicted - 4.0 * Eigen::Matrix<double, N, N>::Identity()).norm(), 0,
         1e-9);
+    // The whitening factor: S^T S is the inverse covariance, and S is lower triangular (L^-1).
+    const auto Si = edge.sqrtInformation(x, P_w, 2.0, noise);
+    const auto cov = edge.covariance(x, P_w, 2.0, noise);
+    EXPECT_LT((Si.transpose() * Si * cov - Eigen::Matrix<double, N, N>::Identity()).norm(), 1e-9);
+    EXPECT_EQ(Si.template triangularView<Eigen::StrictlyUpper>().toDenseMatrix().norm(), 0.0);
   }
 }
 

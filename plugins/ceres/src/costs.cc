@@ -9,9 +9,7 @@ template <int N>
 typename Se2XyzCost<N>::Matrix Se2XyzCost<N>::sqrtInformation(const Se2XyzEdge<N>& edge, const Eigen::Vector3d& x_w_b,
                                                               const Eigen::Vector3d& P_w, double sigma_px,
                                                               const OutOfPlaneNoise& noise) {
-  const Eigen::LLT<Matrix> llt(edge.covariance(x_w_b, P_w, sigma_px, noise));
-  // Sigma = L L^T, so S = L^-1 whitens: S^T S = Sigma^-1.
-  return llt.matrixL().solve(Matrix::Identity());
+  return edge.sqrtInformation(x_w_b, P_w, sigma_px, noise);
 }
 
 template <int N>

@@ -26,6 +26,7 @@
 #include "rvwo/edges/wheel_edge.h"
 #include "rvwo/estimator/features.h"
 #include "rvwo/kernels/barron.h"
+#include "rvwo/pose/planar_pose.h"
 #include "rvwo/semantics/async_segmenter.h"
 #include "rvwo/semantics/label_lookup.h"
 
@@ -35,10 +36,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-// ORB-SLAM's chi2 gates at 95 %: 2 DoF (mono), 3 DoF (stereo).
-constexpr double kChi2Mono = 5.991, kChi2Stereo = 7.815;
-// A wheel edge's gate (3 DoF, 99.9 %).
-constexpr double kChi2WheelOutlier = 16.27;
 // Blind frames this soon after a slip hold the pose instead of following the wheels (s): a
 // walker passing close in front during a slip blinded tracking for 1.5 s, and the wheels, still
 // spinning, took the pose 0.4 rad off (0.5 s of hold: 0.74 % of the path; 2 s: 0.11 %).
@@ -53,42 +50,6 @@ constexpr int kSlipHoldMinFrames = 3;
 constexpr int kSlipMinInliers = 2;
 // Mono: new points are triangulated between a keyframe and this many keyframes before it.
 constexpr int kTriangulationNeighbours = 5;
-
-// What the wheels' noise allows between them and vision over one delta: 3 sigma + 5 mm / 5 mrad.
-struct WheelTolerance {
-  double translation, rotation;  // m, rad
-  explicit WheelTolerance(const WheelDelta& wheels)
-      : translation(3.0 * std::sqrt(wheels.covariance(0, 0) + wheels.covariance(1, 1)) + 0.005),
-        rotation(3.0 * std::sqrt(wheels.covariance(2, 2)) + 0.005) {}
-};
-
-// A slip as wheels make one: they claimed motion the robot did not make (spinning or skidding on
-// the spot). So vision alone went no farther along the wheels' direction than they claimed, and
-// turned no more their way (beyond their 3 sigma and 5 mm / 5 mrad a frame), and the difference
-// stays small (the frames before took the wheels' side only while vision could not tell). It may
-// lie sideways and turn against them: the miss is measured from the last pose, and includes what
-// those frames took. Among walkers, vision alone is pulled anywhere, often further or turning
-// more than the wheels: without this test 56 frames of the 90 s dynamic scenario took it, one 35 cm
-// off the robot.
-bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
-  constexpr double kMaxMiss = 0.25, kMaxTurnMiss = 0.2;  // m, rad
-  const WheelTolerance tol(wheels);
-  const double sp = tol.translation, sphi = tol.rotation;
-  const Eigen::Vector2d miss = wheels.dp - T_b0_b1_vision.translation();
-  const double turn_miss = wheels.dphi - T_b0_b1_vision.angle();
-  if (miss.norm() > kMaxMiss || std::fabs(turn_miss) > kMaxTurnMiss) return false;
-  if (std::fabs(turn_miss) > sphi && turn_miss * wheels.dphi <= 0) return false;  // turned more than they
-  const double travel = wheels.dp.norm();
-  if (travel < 1e-4) return true;  // a turn on the spot: no direction to hold vision to
-  return T_b0_b1_vision.translation().dot(wheels.dp / travel) <= travel + sp;  // went no farther
-}
-
-// Whether vision's motion differs from the wheels' beyond their tolerance.
-bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
-  const WheelTolerance tol(wheels);
-  return (wheels.dp - T_b0_b1_vision.translation()).norm() > tol.translation ||
-         std::fabs(wheels.dphi - T_b0_b1_vision.angle()) > tol.rotation;
-}
 
 // One worker thread running tasks in the order given; submit() returns the result's future
 // (an exception thrown by the task comes out of its get()).
@@ -381,27 +342,6 @@ struct Estimator::Impl {
   // A landmark the adaptive (or a fixed alpha = -inf) kernel rejects: its edges leave the problem.
   bool rejected(double alpha) const { return opt.kernel != KernelChoice::kHuber && alpha == -BarronKernel::kInfinity; }
 
-  // ORB-SLAM's chi2 gate of an observation: 3 DoF with a stereo (or depth) coordinate, else 2.
-  static double gate(bool stereo) { return stereo ? kChi2Stereo : kChi2Mono; }
-
-  // The Barron kernel of a landmark's edges: scale c = barron_scale times the gate's root (Huber's
-  // delta is the root itself, so that at alpha = 1 they bend at nearly the same place).
-  BarronKernel barron(double alpha, bool stereo) const {
-    return BarronKernel(alpha, std::sqrt(gate(stereo)) * opt.barron_scale);
-  }
-
-  // IRLS weight rho'(s) of a residual with squared whitened norm s: Huber at the gate's root, or
-  // the landmark's Barron kernel.
-  double weight(double s, const BarronKernel& kernel, bool stereo) const {
-    if (opt.kernel == KernelChoice::kHuber) {
-      const double c = std::sqrt(gate(stereo)), r = std::sqrt(s);
-      return r <= c ? 1.0 : c / r;
-    }
-    double rho[3];
-    kernel.evaluate(s, rho);
-    return rho[1];
-  }
-
   // The SE(2)-XYZ edge of an observation (u, v, u_R) (N = 3) or (u, v) (N = 2), and the
   // square-root information of its covariance at x (eq. 10: out-of-plane inflation).
   template <int N>
@@ -414,7 +354,7 @@ struct Estimator::Impl {
   }
   template <int N>
   Eigen::Matrix<double, N, N> sqrtInformation(const Eigen::Vector3d& x, const Eigen::Vector3d& P, double sigma) const {
-    return ceres_adapters::Se2XyzCost<N>::sqrtInformation(edge<N>(), x, P, sigma, opt.out_of_plane);
+    return edge<N>().sqrtInformation(x, P, sigma, opt.out_of_plane);
   }
   // Whitened chi2 of observation z = (u, v, u_R) at x (u_R unused when N = 2), with the
   // information at x; false when the point does not project.
@@ -429,21 +369,6 @@ struct Estimator::Impl {
   bool chi2(bool stereo, const Eigen::Vector3d& x, const Eigen::Vector3d& P, const Eigen::Vector3d& z, double sigma,
             double* out) const {
     return stereo ? chi2<3>(x, P, z, sigma, out) : chi2<2>(x, P, z, sigma, out);
-  }
-  // One Gauss-Newton term (w J^T J, w J^T r) of the whitened edge; false when it does not project.
-  template <int N>
-  bool accumulate(const Eigen::Vector3d& x, const Eigen::Vector3d& P, const Eigen::Vector3d& z,
-                  const Eigen::Matrix<double, N, N>& S, const BarronKernel& kernel, Eigen::Matrix3d* H,
-                  Eigen::Vector3d* g) const {
-    Eigen::Matrix<double, N, 1> r;
-    Eigen::Matrix<double, N, 3> J;
-    if (!edge<N>().residual(x, P, z.head<N>(), &r, &J)) return false;
-    const Eigen::Matrix<double, N, 1> rw = S * r;
-    const Eigen::Matrix<double, N, 3> Jw = S * J;
-    const double w = weight(rw.squaredNorm(), kernel, N == 3);
-    *H += w * Jw.transpose() * Jw;
-    *g += w * Jw.transpose() * rw;
-    return true;
   }
   // The camera's pose in the world at the robot pose x = (x, y, theta).
   Eigen::Isometry3d T_w_c(const Eigen::Vector3d& x) const { return SE2::fromVector(x).isometry3() * rig.T_b_c; }
@@ -577,15 +502,14 @@ struct Estimator::Impl {
   int optimisePose(const Features& f, const std::vector<Match>& matches, const std::optional<WheelEdge>& prior,
                    const Eigen::Vector3d& x_prev, Eigen::Vector3d* x, std::vector<char>* inlier,
                    std::vector<double>* errors) {
-    const std::size_t n = matches.size();
-    inlier->assign(n, 1);
-    errors->assign(n, 0.0);
-    std::vector<double> sigma(n);
-    std::vector<char> usable(n, 1), stereo(n);
-    std::vector<BarronKernel> kernel;  // per match, made once (its constants depend on alpha alone)
-    kernel.reserve(n);
-    for (std::size_t k = 0; k < n; ++k) {
-      const double alpha = kernelAlpha(matches[k].point);
+    std::vector<PoseObservation> obs(matches.size());
+    for (std::size_t k = 0; k < matches.size(); ++k) {
+      PoseObservation& o = obs[k];
+      o.P_w = points.at(matches[k].point).P;
+      o.z = observation(f, matches[k].feature);
+      o.stereo = hasStereo(f, matches[k].feature);
+      o.sigma_px = opt.sigma_px * std::pow(opt.scale_factor, f.keypoints[matches[k].feature].octave);
+      o.alpha = kernelAlpha(matches[k].point);
       // With the adaptive kernel a landmark any label has called dynamic does not place a frame,
       // though its alpha (0.51 after one person label, by the weights of ReliabilityParams) keeps
       // it in the map: a frame's pose is cheap to get wrong the other way (the wheels carry it),
@@ -593,61 +517,17 @@ struct Estimator::Impl {
       // (dynamic 30 s cut, 8-10 s: a 0.4 deg yaw error; 0.135 -> 0.058 % of the path). Beyond
       // the paper, which weighs every landmark by its alpha alone. Huber and a fixed alpha know
       // nothing of labels.
-      usable[k] = !rejected(alpha) && (opt.kernel != KernelChoice::kAdaptive || isTrusted(matches[k].point));
-      stereo[k] = hasStereo(f, matches[k].feature);
-      sigma[k] = opt.sigma_px * std::pow(opt.scale_factor, f.keypoints[matches[k].feature].octave);
-      kernel.push_back(barron(alpha, stereo[k]));
+      o.usable = !rejected(o.alpha) && (opt.kernel != KernelChoice::kAdaptive || isTrusted(matches[k].point));
     }
-    int inliers = 0;
-    for (int round = 0; round < 4; ++round) {
-      // Square-root information at this round's linearisation point (eq. 10, out-of-plane inflation).
-      std::vector<Eigen::Matrix3d> S3(n);
-      std::vector<Eigen::Matrix2d> S2(n);
-      for (std::size_t k = 0; k < n; ++k) {
-        if (!usable[k]) continue;
-        const Eigen::Vector3d& P = points.at(matches[k].point).P;
-        if (stereo[k]) {
-          S3[k] = sqrtInformation<3>(*x, P, sigma[k]);
-        } else {
-          S2[k] = sqrtInformation<2>(*x, P, sigma[k]);
-        }
-      }
-      for (int it = 0; it < 10; ++it) {
-        Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-        Eigen::Vector3d g = Eigen::Vector3d::Zero();
-        for (std::size_t k = 0; k < n; ++k) {
-          if (!usable[k] || !(*inlier)[k]) continue;
-          const Eigen::Vector3d& P = points.at(matches[k].point).P;
-          const Eigen::Vector3d z = observation(f, matches[k].feature);
-          const bool ok = stereo[k] ? accumulate<3>(*x, P, z, S3[k], kernel[k], &H, &g)
-                                    : accumulate<2>(*x, P, z, S2[k], kernel[k], &H, &g);
-          if (!ok) (*inlier)[k] = 0;
-        }
-        if (prior) {
-          Eigen::Matrix3d Jj;
-          const Eigen::Vector3d r = prior->sqrtInformation() * prior->residual(x_prev, *x, nullptr, &Jj);
-          const Eigen::Matrix3d Jw = prior->sqrtInformation() * Jj;
-          H += Jw.transpose() * Jw;
-          g += Jw.transpose() * r;
-        }
-        H.diagonal().array() += 1e-9;
-        const Eigen::Vector3d dx = -H.ldlt().solve(g);
-        if (!dx.allFinite()) break;
-        *x += dx;
-        x->z() = wrapAngle(x->z());
-        if (dx.head<2>().norm() < 1e-6 && std::fabs(dx.z()) < 1e-7) break;
-      }
-      // Classify against the gate (every match, so that a rejected one may come back).
-      inliers = 0;
-      for (std::size_t k = 0; k < n; ++k) {
-        double e2 = 1e9;
-        chi2(stereo[k], *x, points.at(matches[k].point).P, observation(f, matches[k].feature), sigma[k], &e2);
-        (*errors)[k] = std::sqrt(e2);
-        (*inlier)[k] = usable[k] && e2 <= gate(stereo[k]);
-        inliers += (*inlier)[k];
-      }
-    }
-    return inliers;
+    PlanarPoseOptions po;
+    po.huber = opt.kernel == KernelChoice::kHuber;
+    po.barron_scale = opt.barron_scale;
+    po.out_of_plane = opt.out_of_plane;
+    const WheelPrior wheel{prior ? &*prior : nullptr, x_prev};
+    PlanarPoseResult r = optimisePlanarPose(mono_edge, stereo_edge ? &*stereo_edge : nullptr, obs, wheel, po, x);
+    inlier->swap(r.inlier);
+    errors->swap(r.error);
+    return r.inliers;
   }
 
   // The wheels' motion between t0 and t1, clipped to the readings there are; none in vo mode or
@@ -1352,8 +1232,8 @@ struct Estimator::Impl {
     ceres::Problem problem(po);
     std::vector<ceres::ResidualBlockId> blocks(obs.size(), nullptr);
     auto loss = [&](double a, bool stereo) -> ceres::LossFunction* {
-      if (opt.kernel == KernelChoice::kHuber) return new ceres::HuberLoss(std::sqrt(gate(stereo)));
-      return new ceres_adapters::BarronLoss(a, opt.barron_scale * std::sqrt(gate(stereo)));
+      if (opt.kernel == KernelChoice::kHuber) return new ceres::HuberLoss(std::sqrt(chi2Gate(stereo)));
+      return new ceres_adapters::BarronLoss(a, opt.barron_scale * std::sqrt(chi2Gate(stereo)));
     };
     auto cost = [&](const Obs& o) -> ceres::CostFunction* {
       const Eigen::Vector3d &xk = x[o.kf], &Pk = P[o.point];
@@ -1499,7 +1379,7 @@ struct Estimator::Impl {
       }
       for (std::size_t k = 0; k < obs.size(); ++k) {
         double chi2 = 0;
-        if (blocks[k] && (!chi2Of(obs[k], &chi2) || chi2 > gate(obs[k].stereo))) {
+        if (blocks[k] && (!chi2Of(obs[k], &chi2) || chi2 > chi2Gate(obs[k].stereo))) {
           problem.RemoveResidualBlock(blocks[k]);
           blocks[k] = nullptr;
         }
@@ -1537,7 +1417,7 @@ struct Estimator::Impl {
       const bool ok = chi2Of(o, &chi2);
       sum[o.point] += std::min(chi2, 1e4);
       ++count[o.point];
-      if (!ok || chi2 > gate(o.stereo)) {  // the observation goes
+      if (!ok || chi2 > chi2Gate(o.stereo)) {  // the observation goes
         auto p = points.find(o.point_id);
         if (p != points.end()) p->second.obs.erase(o.kf_id);
         auto kf = keyframes.find(o.kf_id);

@@ -60,6 +60,9 @@ class Se2XyzEdge {
   // Sigma_r, the measurement covariance inflated by the out-of-plane motion (eq. 10).
   Covariance covariance(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, double sigma_px,
                         const OutOfPlaneNoise& noise) const;
+  // S with S^T S = covariance()^-1 (S = L^-1 of its Cholesky factor): S r is the whitened residual.
+  Covariance sqrtInformation(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, double sigma_px,
+                             const OutOfPlaneNoise& noise) const;
 
   const CameraModel& camera() const { return *camera_; }
   const Eigen::Isometry3d& T_b_c() const { return T_b_c_; }
