@@ -283,8 +283,9 @@ extern "C" void orbslam3Aborted(int) {
 // --backend orbslam3: ORB-SLAM3 (patched) fed like the estimator, its report in the same terms.
 class OrbSlam3Backend {
  public:
+  // settings: the sequence's, whose Odometry.Noise* and Reliability.* keys go on to ORB-SLAM3.
   OrbSlam3Backend(const rvwo::estimator::Rig& rig, const rvwo::estimator::EstimatorOptions& opt, bool wheels,
-                  const std::string& vocabulary, const std::string& out)
+                  const rvwo::Settings& settings, const std::string& vocabulary, const std::string& out)
       : T_b_c_(rig.T_b_c) {
     using Sensor = rvwo::orbslam3::RunnerOptions::Sensor;
     if (rig.rectification) throw std::invalid_argument("--backend orbslam3 takes pinhole cameras (not fisheye)");
@@ -313,7 +314,17 @@ class OrbSlam3Backend {
     w.radius_left = opt.drive.radius_left;
     w.radius_right = opt.drive.radius_right;
     w.track = opt.drive.track;
-    rvwo::orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels ? &w : nullptr);
+    w.huber = opt.kernel == rvwo::estimator::KernelChoice::kHuber;
+    w.barron_scale = opt.barron_scale;
+    w.sigma_z = opt.out_of_plane.sigma_z;
+    w.sigma_rollpitch = std::sqrt(opt.out_of_plane.sigma_rollpitch(0, 0));
+    std::vector<std::pair<std::string, std::string>> more;
+    for (const char* prefix : {"Odometry.Noise", "Reliability."}) {
+      for (const std::string& key : settings.keysWithPrefix(prefix)) {
+        if (const auto v = settings.number(key)) more.emplace_back(key, std::to_string(*v));
+      }
+    }
+    rvwo::orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels ? &w : nullptr, more);
     std::printf("rvwo-replay: ORB-SLAM3 settings %s, its console output in %s\n", o.settings.c_str(), o.log.c_str());
     std::snprintf(g_abort_message, sizeof g_abort_message,
                   "\nrvwo-replay: error: ORB-SLAM3 aborted (its last words are in %s); no trajectory written\n",
@@ -486,6 +497,8 @@ int main(int argc, char** argv) {
         throw std::invalid_argument("--backend orbslam3 takes --mode vw or vo (wheel: --backend rvwo)");
       if (vocabulary_arg.getValue().empty())
         throw std::invalid_argument("--backend orbslam3 needs --vocabulary (rvwo-orbslam3-vocab makes one)");
+      if (opt.kernel == rvwo::estimator::KernelChoice::kFixed)
+        throw std::invalid_argument("--backend orbslam3 takes --kernel adaptive or huber");
       opt.semantics = false;
     } else if (backend_arg.getValue() != "rvwo") {
       throw std::invalid_argument("--backend must be rvwo or orbslam3, not '" + backend_arg.getValue() + "'");
@@ -522,7 +535,7 @@ int main(int argc, char** argv) {
 #ifdef RVWO_WITH_ORBSLAM3
     std::unique_ptr<OrbSlam3Backend> orbslam3;
     if (use_orbslam3)
-      orbslam3 = std::make_unique<OrbSlam3Backend>(rig, opt, opt.mode == rvwo::estimator::Mode::kVw,
+      orbslam3 = std::make_unique<OrbSlam3Backend>(rig, opt, opt.mode == rvwo::estimator::Mode::kVw, settings,
                                                    vocabulary_arg.getValue(), out_arg.getValue());
 #endif
     if (!use_orbslam3) estimator = std::make_unique<rvwo::estimator::Estimator>(rig, opt, segmenter);

@@ -6,9 +6,10 @@
 # --camera rgbd --out out/suite-rgbd). Trajectories, reports and plots go to
 # DIR-runs/<name>/<mode>-<kernel>.{txt,log,png} (out/suite-runs/... by default).
 # --orbslam3 VOC: the patched ORB-SLAM3 instead (rvwo-replay --backend orbslam3, from build dir B,
-# default build, configured with ORB_SLAM3_ROOT; VOC its vocabulary), without the wheels (vo, as
-# upstream) and with them (vw). "wheels" is then the frames ORB-SLAM3 did not track, "poses" the
-# frames it kept a pose for (the ATE is over those).
+# default build, configured with ORB_SLAM3_ROOT; VOC its vocabulary), without the wheels (vo: as
+# upstream) and with them (vw: poses on SE(2)), under Huber and under the adaptive kernel. "wheels"
+# is then the frames ORB-SLAM3 did not track, "poses" the frames it kept a pose for (the ATE is
+# over those).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
@@ -29,7 +30,7 @@ fi
 [ ${#names[@]} -gt 0 ] || { echo "run-suite: no sequences in $suite (bash scripts/make-suite.sh makes them)" >&2; exit 2; }
 cmake --build "$build" --target rvwo-replay >/dev/null
 runs=(wheel vo:huber vw:huber vw:adaptive)
-[ -n "$voc" ] && runs=(orbslam3-vo orbslam3-vw)
+[ -n "$voc" ] && runs=(orbslam3-vo:huber orbslam3-vw:huber orbslam3-vw:adaptive)
 printf '%-12s %-16s %10s %8s %10s %8s %7s\n' scenario run "ATE [m]" "% path" "x realtime" "wheels" poses
 for n in "${names[@]}"; do
   seq="$suite/$n" out="$suite-runs/$n"
@@ -39,7 +40,7 @@ for n in "${names[@]}"; do
     [ "$mode" = wheel ] && kernel=huber
     name="$mode-$kernel"
     if [ -n "$voc" ]; then
-      mode=${run#orbslam3-} kernel=huber name=$run extra=(--backend orbslam3 --vocabulary "$voc")
+      mode=${mode#orbslam3-} name=orbslam3-$mode-$kernel extra=(--backend orbslam3 --vocabulary "$voc")
     fi
     if "./$build/apps/rvwo-replay" --quiet "${flags[@]}" "${extra[@]}" --settings "$seq/settings.yaml" --rawlog "$seq/sequence.rawlog" \
       --gt "$seq/groundtruth.txt" --mode "$mode" --kernel "$kernel" --out "$out/$name.txt" >"$out/$name.log" 2>&1; then

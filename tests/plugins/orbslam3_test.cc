@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <random>
 
 #include "../common/temp.h"
@@ -169,7 +170,168 @@ TEST(WheelInput, ReadsRvwoKeysFromTheSettings) {
       "Odometry.Track: -1\nCamera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
       "   data: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n");
   EXPECT_THROW(w.configure(path.string()), std::invalid_argument);
+  // A kernel it does not know, named with its key.
+  write(
+      "Tracking.Kernel: \"cauchy\"\nCamera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+      "   data: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n");
+  try {
+    w.configure(path.string());
+    FAIL() << "a bad Tracking.Kernel";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("Tracking.Kernel"), std::string::npos) << e.what();
+  }
   std::filesystem::remove(path);
+}
+
+// ---- pose optimisation on SE(2) (optimisePose), on a synthetic stereo frame
+
+using rvwo::orbslam3::PoseMatch;
+using rvwo::orbslam3::PoseProblem;
+using rvwo::orbslam3::PoseSolution;
+
+// ORB-SLAM3's world is its first camera's frame; the robot's planar world lies T_b_c under it.
+Eigen::Isometry3d cameraPose(const rvwo::SE2& x_w_b, const Eigen::Isometry3d& T_b_c) {
+  return (T_b_c.inverse() * x_w_b.isometry3() * T_b_c).inverse();  // T_c_w
+}
+
+struct StereoFrame {
+  PoseProblem problem;
+  std::vector<char> bad;
+  // n matches seen from x_true (1 px noise at level 0), a fraction of them 30 px off.
+  StereoFrame(const rvwo::SE2& x_true, const Eigen::Isometry3d& T_b_c, int n, double outliers, unsigned seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(-1, 1), depth(1.5, 10.0), coin(0, 1);
+    std::normal_distribution<double> g(0, 1);
+    problem.fx = problem.fy = 400;
+    problem.cx = 319.5;
+    problem.cy = 239.5;
+    problem.bf = 0.12 * 400;
+    problem.scale_factor = 1.2;
+    problem.has_previous = false;
+    const Eigen::Isometry3d T_w_c = cameraPose(x_true, T_b_c).inverse();
+    for (int k = 0; k < n; ++k) {
+      const double z = depth(rng);
+      const Eigen::Vector3d P_c(u(rng) * 0.7 * z, u(rng) * 0.5 * z, z);
+      PoseMatch m;
+      m.P_w = T_w_c * P_c;
+      m.level = k % 3;
+      const double s = std::pow(1.2, m.level);
+      m.u = 400 * P_c.x() / z + 319.5 + s * g(rng);
+      m.v = 400 * P_c.y() / z + 239.5 + s * g(rng);
+      m.u_right = m.u - problem.bf / z;
+      bad.push_back(coin(rng) < outliers);
+      if (bad.back()) m.u += 30, m.u_right += 30;
+      m.id = static_cast<unsigned long>(k);
+      problem.matches.push_back(m);
+    }
+  }
+};
+
+// The robot pose a solution's camera pose means, and how far that camera pose is off the plane.
+rvwo::SE2 robotOf(const Eigen::Isometry3d& T_c_w, const Eigen::Isometry3d& T_b_c, double* off_plane) {
+  const Eigen::Isometry3d T_w_b = T_b_c * T_c_w.inverse() * T_b_c.inverse();
+  *off_plane = std::fabs(T_w_b.translation().z()) + std::fabs(T_w_b.linear()(2, 2) - 1.0);
+  return rvwo::SE2(T_w_b.translation().x(), T_w_b.translation().y(),
+                   std::atan2(T_w_b.linear()(1, 0), T_w_b.linear()(0, 0)));
+}
+
+// The odometry reports the truth (or, slipping, what `claimed` says) at 100 Hz over [0, 1].
+void configureWheels(WheelInput& w, const Eigen::Isometry3d& T_b_c, const std::function<rvwo::SE2(double)>& claimed) {
+  WheelInputParams p;
+  p.T_b_c = T_b_c;
+  w.configure(p);
+  std::vector<WheelReading> readings;
+  for (int k = 0; k <= 100; ++k) {
+    const rvwo::SE2 x = claimed(0.01 * k);
+    readings.push_back(WheelReading::pose(0.01 * k, x.translation().x(), x.translation().y(), x.angle()));
+  }
+  w.add(readings);
+}
+
+TEST(WheelInputPose, PlacesTheFrameOnThePlaneThroughOutliers) {
+  const Eigen::Isometry3d T_b_c = tiltedCamera();
+  auto drive = [](double t) { return rvwo::SE2(0.5 * t, 0.1 * t * t, M_PI - 0.05 + 0.2 * t); };  // across +-pi
+  WheelInput w;
+  configureWheels(w, T_b_c, drive);
+  ASSERT_TRUE(w.optimisesPoses());
+  StereoFrame f(drive(0.5), T_b_c, 200, 0.15, 3);
+  f.problem.t = 0.5;
+  f.problem.has_previous = true;
+  f.problem.t_previous = 0.5 - 1.0 / 30;
+  f.problem.T_cp_w = cameraPose(drive(f.problem.t_previous), T_b_c);
+  // Predicted 6 cm and 3 degrees off, and out of the plane (as a 6-DoF pose may be).
+  Eigen::Isometry3d T_c_w = cameraPose(drive(0.5) * rvwo::SE2(0.05, -0.03, 0.05), T_b_c);
+  T_c_w.translation().y() += 0.02;
+  f.problem.T_c_w = T_c_w;
+  PoseSolution s;
+  ASSERT_TRUE(w.optimisePose(f.problem, &s));
+  double off_plane = 1;
+  const rvwo::SE2 x = robotOf(s.T_c_w, T_b_c, &off_plane);
+  const rvwo::SE2 e = drive(0.5).inverse() * x;
+  EXPECT_LT(e.translation().norm(), 0.004);
+  EXPECT_LT(std::fabs(e.angle()), 1e-3);
+  EXPECT_LT(off_plane, 1e-9);
+  EXPECT_FALSE(s.slip);
+  int good = 0, good_in = 0;
+  for (std::size_t k = 0; k < f.bad.size(); ++k) {
+    if (f.bad[k]) {
+      EXPECT_TRUE(s.outlier[k]) << k;
+    } else {
+      ++good;
+      good_in += !s.outlier[k];
+    }
+  }
+  EXPECT_EQ(s.inliers, good_in);
+  EXPECT_GT(good_in, 0.85 * good);
+  // Fewer than 3 matches: ORB-SLAM3's own optimisation is to run.
+  f.problem.matches.resize(2);
+  EXPECT_FALSE(w.optimisePose(f.problem, &s));
+}
+
+TEST(WheelInputPose, WheelsThatSlipLoseToVision) {
+  const Eigen::Isometry3d T_b_c = tiltedCamera();
+  const rvwo::SE2 still(1.0, 2.0, 0.3);
+  // The robot stands still while its wheels claim 60 cm/s ahead (spinning on a wet floor).
+  WheelInput w;
+  configureWheels(w, T_b_c, [&](double t) { return still * rvwo::SE2(0.6 * t, 0, 0); });
+  StereoFrame f(still, T_b_c, 200, 0.0, 5);
+  f.problem.t = 0.5;
+  f.problem.has_previous = true;
+  f.problem.t_previous = 0.4;
+  f.problem.T_cp_w = cameraPose(still, T_b_c);
+  f.problem.T_c_w = cameraPose(still * rvwo::SE2(0.06, 0, 0), T_b_c);  // the wheels' prediction
+  PoseSolution s;
+  ASSERT_TRUE(w.optimisePose(f.problem, &s));
+  EXPECT_TRUE(s.slip);
+  EXPECT_EQ(w.slipFrames(), 1u);
+  double off_plane = 1;
+  EXPECT_LT((still.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm(), 0.002);
+  // The same frame with wheels that tell the truth: no slip.
+  WheelInput honest;
+  configureWheels(honest, T_b_c, [&](double) { return still; });
+  ASSERT_TRUE(honest.optimisePose(f.problem, &s));
+  EXPECT_FALSE(s.slip);
+  EXPECT_LT((still.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm(), 0.002);
+}
+
+TEST(WheelInputPose, MonocularAndInactiveLeaveItToOrbSlam3) {
+  WheelInput none;
+  EXPECT_FALSE(none.optimisesPoses());
+  WheelInputParams p;
+  p.map_from_depth = false;  // mono: the map's scale is not the wheels'
+  WheelInput mono;
+  mono.configure(p);
+  EXPECT_FALSE(mono.optimisesPoses());
+  StereoFrame f(rvwo::SE2(), Eigen::Isometry3d::Identity(), 10, 0.0, 1);
+  f.problem.t = 0;
+  f.problem.T_c_w = Eigen::Isometry3d::Identity();
+  PoseSolution s;
+  EXPECT_FALSE(mono.optimisePose(f.problem, &s));
+  p.map_from_depth = true;
+  p.planar = false;
+  WheelInput off;
+  off.configure(p);
+  EXPECT_FALSE(off.optimisesPoses());
 }
 
 }  // namespace

@@ -57,7 +57,8 @@ std::string real(double x) {
 }  // namespace
 
 void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor, const OrbSlam3Camera& c,
-                           const OrbSlam3Features& f, const WheelInputParams* wheels) {
+                           const OrbSlam3Features& f, const WheelInputParams* wheels,
+                           const std::vector<std::pair<std::string, std::string>>& more) {
   std::ofstream out(path);
   out.precision(12);
   // Upstream's older settings format (no File.version): v1.0's new one crashes printing a
@@ -86,6 +87,11 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
     out << "Odometry.WheelRadiusLeft: " << real(wheels->radius_left)
         << "\nOdometry.WheelRadiusRight: " << real(wheels->radius_right) << "\nOdometry.Track: " << real(wheels->track)
         << "\n";
+    out << "Tracking.Planar: " << (wheels->planar ? 1 : 0) << "\nTracking.Kernel: \""
+        << (wheels->huber ? "huber" : "adaptive") << "\"\nTracking.BarronScale: " << real(wheels->barron_scale)
+        << "\nTracking.SigmaZ: " << real(wheels->sigma_z) << "\nTracking.SigmaRollPitch: " << real(wheels->sigma_rollpitch)
+        << "\n";
+    for (const auto& [key, value] : more) out << key << ": " << value << "\n";
   }
   if (!out.flush()) throw std::runtime_error("cannot write " + path);
 }

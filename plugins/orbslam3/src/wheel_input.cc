@@ -2,9 +2,13 @@
 #include "rvwo/orbslam3/wheel_input.h"
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
+#include "rvwo/edges/camera.h"
 #include "rvwo/edges/wheel_preintegration.h"
+#include "rvwo/kernels/reliability.h"
+#include "rvwo/pose/planar_pose.h"
 #include "rvwo/settings/settings.h"
 
 namespace rvwo::orbslam3 {
@@ -17,6 +21,16 @@ SE2 planar(const Eigen::Isometry3d& T) {
 }  // namespace
 
 struct WheelInput::Impl {
+  Impl(const WheelInputParams& p, const WheelNoise& noise, const ReliabilityParams& r)
+      : params(p), odometry(noise, planar(p.T_b_o)), reliability(r) {
+    drive.radius_left = p.radius_left;
+    drive.radius_right = p.radius_right;
+    drive.track = p.track;
+    drive.validate();
+    noise.validate();
+    out_of_plane.sigma_z = p.sigma_z;
+    out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * p.sigma_rollpitch * p.sigma_rollpitch;
+  }
   WheelInputParams params;
   DiffDriveParams drive;
   WheelOdometry odometry;
@@ -24,20 +38,46 @@ struct WheelInput::Impl {
   int run = 0;  // frames on the wheels in a row, this one included
   bool keyframe = false;
   std::vector<std::pair<double, double>> intervals;
+  // ---- pose optimisation
+  ReliabilityManager reliability;  // per map point id: eq. 6 from its latest whitened error
+  OutOfPlaneNoise out_of_plane;
+  std::optional<PinholeCamera> camera;  // made with the first problem (ORB-SLAM3's intrinsics)
+  std::optional<Se2XyzMonoEdge> mono;
+  std::optional<Se2XyzStereoEdge> stereo;
+  bool slipping = false;
+  std::size_t slip_frames = 0;
+
+  void makeEdges(const PoseProblem& p) {
+    if (camera && camera->fx() == p.fx && camera->fy() == p.fy && camera->cx() == p.cx && camera->cy() == p.cy &&
+        stereo_bf == p.bf)
+      return;
+    mono.reset();
+    stereo.reset();
+    camera.emplace(p.fx, p.fy, p.cx, p.cy);
+    mono.emplace(*camera, params.T_b_c);
+    stereo.emplace(*camera, params.T_b_c, p.bf);
+    stereo_bf = p.bf;
+  }
+  double stereo_bf = 0.0;
+
+  // The robot's planar pose x_w_b (w: the body frame under the map's origin camera, T_w_c0 = T_b_c)
+  // of a camera pose in ORB-SLAM3's world (its origin camera's frame). Out of the plane parts
+  // (height, roll, pitch: local BA moves keyframes in 6 DoF) are dropped.
+  Eigen::Vector3d planarOf(const Eigen::Isometry3d& T_c_w) const {
+    const Eigen::Isometry3d& T_b_c = params.T_b_c;
+    return planar(T_b_c * T_c_w.inverse() * T_b_c.inverse()).vector();
+  }
+  Eigen::Isometry3d cameraOf(const Eigen::Vector3d& x) const {
+    const Eigen::Isometry3d& T_b_c = params.T_b_c;
+    return T_b_c.inverse() * SE2::fromVector(x).isometry3().inverse() * T_b_c;
+  }
 };
 
 WheelInput::WheelInput() = default;
 WheelInput::~WheelInput() = default;
 
 void WheelInput::configure(const WheelInputParams& p) {
-  auto impl = std::make_unique<Impl>();
-  impl->params = p;
-  impl->drive.radius_left = p.radius_left;
-  impl->drive.radius_right = p.radius_right;
-  impl->drive.track = p.track;
-  impl->drive.validate();
-  impl->odometry = WheelOdometry(WheelNoise(), planar(p.T_b_o));
-  impl_ = std::move(impl);
+  impl_ = std::make_unique<Impl>(p, WheelNoise(), ReliabilityParams());
 }
 
 void WheelInput::configure(const std::string& settings_path) {
@@ -55,7 +95,22 @@ void WheelInput::configure(const std::string& settings_path) {
   p.track = d.track;
   const std::string sensor = s.text("Sensor").value_or("stereo");
   p.map_from_depth = sensor != "mono";
-  configure(p);
+  p.planar = s.number("Tracking.Planar").value_or(1.0) != 0.0;
+  const std::string kernel = s.text("Tracking.Kernel").value_or("adaptive");
+  if (kernel != "adaptive" && kernel != "huber")
+    throw std::invalid_argument(settings_path + ": Tracking.Kernel is '" + kernel + "', not adaptive or huber");
+  p.huber = kernel == "huber";
+  p.barron_scale = s.number("Tracking.BarronScale").value_or(p.barron_scale);
+  p.sigma_z = s.number("Tracking.SigmaZ").value_or(p.sigma_z);
+  p.sigma_rollpitch = s.number("Tracking.SigmaRollPitch").value_or(p.sigma_rollpitch);
+  if (!(p.barron_scale > 0) || !(p.sigma_z >= 0) || !(p.sigma_rollpitch >= 0))
+    throw std::invalid_argument(settings_path +
+                                ": Tracking.BarronScale must be > 0, Tracking.SigmaZ and .SigmaRollPitch >= 0");
+  try {
+    impl_ = std::make_unique<Impl>(p, readWheelNoise(s), readReliability(s));
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(settings_path + ": " + e.what());
+  }
 }
 
 bool WheelInput::active() const { return impl_ != nullptr; }
@@ -125,5 +180,91 @@ std::size_t WheelInput::wheelOnlyFrames() const { return impl_ ? impl_->wheel_fr
 std::vector<std::pair<double, double>> WheelInput::wheelOnlyIntervals() const {
   return impl_ ? impl_->intervals : std::vector<std::pair<double, double>>{};
 }
+
+bool WheelInput::optimisesPoses() const { return impl_ && impl_->params.planar && impl_->params.map_from_depth; }
+
+bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
+  if (!optimisesPoses() || pb.matches.size() < 3) return false;
+  Impl& m = *impl_;
+  m.makeEdges(pb);
+  const std::size_t n = pb.matches.size();
+  std::vector<PoseObservation> obs(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const PoseMatch& a = pb.matches[k];
+    PoseObservation& o = obs[k];
+    o.P_w = m.params.T_b_c * a.P_w;  // into the planar world
+    o.z = Eigen::Vector3d(a.u, a.v, a.u_right);
+    o.stereo = a.u_right >= 0;
+    o.sigma_px = std::pow(pb.scale_factor, a.level);  // ORB-SLAM3's: 1 px at level 0
+    o.alpha = m.params.huber ? 1.0 : m.reliability.alpha(a.id);
+  }
+  PlanarPoseOptions opt;
+  opt.huber = m.params.huber;
+  opt.barron_scale = m.params.barron_scale;
+  opt.out_of_plane = m.out_of_plane;
+
+  // The wheel edge from the previous frame (eq. 14), when the readings cover both frames.
+  std::optional<WheelDelta> delta;
+  std::optional<WheelEdge> edge;
+  Eigen::Vector3d x_prev = Eigen::Vector3d::Zero();
+  if (pb.has_previous && covers(pb.t_previous, pb.t)) {
+    x_prev = m.planarOf(pb.T_cp_w);
+    delta = m.odometry.integrate(pb.t_previous, pb.t);
+    try {
+      edge.emplace(*delta);
+    } catch (const std::invalid_argument&) {  // degenerate covariance: vision alone
+      delta.reset();
+    }
+  }
+  Eigen::Vector3d x = m.planarOf(pb.T_c_w);
+  PlanarPoseResult r =
+      optimisePlanarPose(*m.mono, &*m.stereo, obs, WheelPrior{edge ? &*edge : nullptr, x_prev}, opt, &x);
+
+  // Slip: the wheels claimed motion the robot did not make, so every static point disagrees with
+  // them and vision alone, started where the robot was, explains clearly more (the estimator's
+  // test, without its labels: ORB-SLAM3 has none yet in tracking). Among walkers the wheels side
+  // with the static points and keep the pose (looksLikeSlip).
+  bool slip = false;
+  if (edge) {
+    const double prior_chi2 = (edge->sqrtInformation() * edge->residual(x_prev, x)).squaredNorm();
+    const bool strained = prior_chi2 > kChi2WheelOutlier;
+    if (m.slipping || strained || static_cast<double>(n) > 1.3 * r.inliers + 10) {
+      Eigen::Vector3d x_vision = x_prev;
+      PlanarPoseResult rv = optimisePlanarPose(*m.mono, &*m.stereo, obs, WheelPrior{}, opt, &x_vision);
+      const SE2 T_vision = SE2::fromVector(x_prev).inverse() * SE2::fromVector(x_vision);
+      const bool disagree = wheelsDisagree(*delta, T_vision);
+      const bool better =
+          rv.inliers > 1.3 * r.inliers + 10 ||
+          (strained && (rv.inliers >= 1.05 * r.inliers + 10 ||
+                        (disagree && rv.inliers > r.inliers &&
+                         wheelsDisagree(*delta, SE2::fromVector(x_prev).inverse() * SE2::fromVector(x)))));
+      // ORB-SLAM3's bar for a tracked frame (30 inliers), twice over, for vision to overrule the wheels.
+      const bool enough = rv.inliers >= 60;
+      const bool starts =
+          better && enough && rv.inliers >= 0.85 * static_cast<double>(n) && looksLikeSlip(*delta, T_vision);
+      const bool goes_on = m.slipping && enough && rv.inliers >= 0.98 * r.inliers && looksLikeSlip(*delta, T_vision) &&
+                           (disagree || strained);
+      if (starts || goes_on) {
+        slip = true;
+        x = x_vision;
+        r = std::move(rv);
+      }
+    }
+  }
+  if (slip) ++m.slip_frames;
+  m.slipping = slip;
+  // Eq. 6: every match's latest whitened error (outliers included: that is the point).
+  if (!m.params.huber) {
+    for (std::size_t k = 0; k < n; ++k) m.reliability.observe(pb.matches[k].id, std::nullopt, r.error[k]);
+  }
+  out->T_c_w = m.cameraOf(x);
+  out->outlier.resize(n);
+  for (std::size_t k = 0; k < n; ++k) out->outlier[k] = !r.inlier[k];
+  out->inliers = r.inliers;
+  out->slip = slip;
+  return true;
+}
+
+std::size_t WheelInput::slipFrames() const { return impl_ ? impl_->slip_frames : 0; }
 
 }  // namespace rvwo::orbslam3

@@ -40,10 +40,13 @@ struct OrbSlam3Features {
 };
 
 // Writes ORB-SLAM3 v1.0's settings (its older format, which v1.0 reads too). With wheels (RVWO's keys Camera.T_b_c,
-// Odometry.*) the patched ORB-SLAM3 fuses the wheels; with nullptr it runs as upstream. Throws
-// std::runtime_error when the file cannot be written.
+// Odometry.*, Tracking.*) the patched ORB-SLAM3 fuses the wheels and optimises poses on SE(2);
+// with nullptr it runs as upstream. `more`: further RVWO keys with their YAML values
+// (Odometry.Noise*, Reliability.*), written with the wheels' only. Throws std::runtime_error when
+// the file cannot be written.
 void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor, const OrbSlam3Camera& camera,
-                           const OrbSlam3Features& features, const WheelInputParams* wheels);
+                           const OrbSlam3Features& features, const WheelInputParams* wheels,
+                           const std::vector<std::pair<std::string, std::string>>& more = {});
 
 // Builds a DBoW2 vocabulary (k^L words at most; TF-IDF, L1 score as upstream's ORBvoc.txt) from
 // the ORB features ORB-SLAM3's own extractor finds in the images, and writes it as text for

@@ -11,7 +11,11 @@
 //   - carries the pose on the wheels while vision cannot place the frame (lens covered, no
 //     texture), so that tracking is never lost and the map resumes from there;
 //   - asks for a keyframe while it carries a stereo or RGB-D frame that has features again, so
-//     that new map points restart tracking where the old map is out of sight.
+//     that new map points restart tracking where the old map is out of sight;
+//   - optimises a stereo or RGB-D frame's pose on SE(2) (optimisePose, in place of ORB-SLAM3's
+//     6-DoF PoseOptimization): SE(2)-XYZ edges with out-of-plane noise (eqs. 8 to 10), each map
+//     point under its adaptive Barron kernel (eqs. 6, 7), and the wheel edge from the previous
+//     frame (eq. 14), unless the wheels slipped.
 //
 // This header is included by ORB-SLAM3's Tracking.h, which upstream compiles as C++11: it uses
 // nothing newer and hides the C++17 core behind a pointer.
@@ -48,6 +52,44 @@ struct WheelInputParams {
   int min_features = 500;      // features a frame carried on the wheels needs for a keyframe
                                // (ORB-SLAM3's own bar for starting a stereo map)
   int keyframe_every = 5;      // frames between keyframes while on the wheels
+  // ---- pose optimisation on SE(2) (stereo and RGB-D; mono keeps ORB-SLAM3's own)
+  bool planar = true;             // optimisePose answers [Tracking.Planar: 1 | 0]
+  bool huber = false;             // Huber (ORB-SLAM3's kernel) instead of the adaptive Barron kernel
+                                  // [Tracking.Kernel: adaptive | huber]
+  double barron_scale = 2.0;      // Barron's c, in units of the chi2 gate's root [Tracking.BarronScale]
+  double sigma_z = 0.01;          // m: the body's height off the plane [Tracking.SigmaZ]
+  double sigma_rollpitch = 0.01;  // rad: its roll and pitch [Tracking.SigmaRollPitch]
+  // Noise densities of the odometry [Odometry.Noise*] and the reliability model [Reliability.*]
+  // are read from the settings into the plugin's own (C++17) types.
+};
+
+// One match of a frame to a map point, as ORB-SLAM3's Frame holds it.
+struct PoseMatch {
+  Eigen::Vector3d P_w;  // the map point in ORB-SLAM3's world [m]
+  double u, v;          // undistorted keypoint [px]
+  double u_right;       // right-image column [px]; < 0: none (a monocular observation)
+  int level;            // pyramid level of the keypoint
+  unsigned long id;     // the map point's id (its reliability)
+};
+
+// A frame's pose problem: its matches, its prediction, and the frame before it.
+struct PoseProblem {
+  double t;
+  Eigen::Isometry3d T_c_w;  // the prediction
+  bool has_previous;        // the previous frame has a pose: the wheel edge ties to it
+  double t_previous;
+  Eigen::Isometry3d T_cp_w;
+  double fx, fy, cx, cy;  // rectified pinhole intrinsics [px]
+  double bf;              // stereo baseline times fx [px m]
+  double scale_factor;    // between pyramid levels (ORB-SLAM3's 1.2)
+  std::vector<PoseMatch> matches;
+};
+
+struct PoseSolution {
+  Eigen::Isometry3d T_c_w;
+  std::vector<char> outlier;  // per match
+  int inliers;
+  bool slip;  // the wheels disagreed with vision (slipped): vision alone placed the frame
 };
 
 class WheelInput {
@@ -80,6 +122,13 @@ class WheelInput {
   std::size_t wheelOnlyFrames() const;
   // [first, last] frame time of each stretch on the wheels.
   std::vector<std::pair<double, double> > wheelOnlyIntervals() const;
+
+  // Whether optimisePose answers (active, planar, stereo or RGB-D).
+  bool optimisesPoses() const;
+  // The pose of a frame on SE(2): false (and nothing written) when optimisesPoses() is false or
+  // the problem has fewer than 3 matches, for ORB-SLAM3's own PoseOptimization to run instead.
+  bool optimisePose(const PoseProblem& problem, PoseSolution* solution);
+  std::size_t slipFrames() const;
 
  private:
   struct Impl;
