@@ -283,7 +283,8 @@ extern "C" void orbslam3Aborted(int) {
 // --backend orbslam3: ORB-SLAM3 (patched) fed like the estimator, its report in the same terms.
 class OrbSlam3Backend {
  public:
-  // settings: the sequence's, whose Odometry.Noise* and Reliability.* keys go on to ORB-SLAM3.
+  // settings: the sequence's, whose Odometry.Noise*, Reliability.* and Tracking.SlipCheck keys go on
+  // to ORB-SLAM3.
   OrbSlam3Backend(const rvwo::estimator::Rig& rig, const rvwo::estimator::EstimatorOptions& opt, bool wheels,
                   const rvwo::Settings& settings, const std::string& vocabulary, const std::string& out)
       : T_b_c_(rig.T_b_c) {
@@ -318,6 +319,7 @@ class OrbSlam3Backend {
     w.barron_scale = opt.barron_scale;
     w.sigma_z = opt.out_of_plane.sigma_z;
     w.sigma_rollpitch = std::sqrt(opt.out_of_plane.sigma_rollpitch(0, 0));
+    if (const auto v = settings.number("Tracking.SlipCheck")) w.slip_check = *v != 0;
     std::vector<std::pair<std::string, std::string>> more;
     for (const char* prefix : {"Odometry.Noise", "Reliability."}) {
       for (const std::string& key : settings.keysWithPrefix(prefix)) {

@@ -236,9 +236,11 @@ rvwo::SE2 robotOf(const Eigen::Isometry3d& T_c_w, const Eigen::Isometry3d& T_b_c
 }
 
 // The odometry reports the truth (or, slipping, what `claimed` says) at 100 Hz over [0, 1].
-void configureWheels(WheelInput& w, const Eigen::Isometry3d& T_b_c, const std::function<rvwo::SE2(double)>& claimed) {
+void configureWheels(WheelInput& w, const Eigen::Isometry3d& T_b_c, const std::function<rvwo::SE2(double)>& claimed,
+                     bool slip_check = true) {
   WheelInputParams p;
   p.T_b_c = T_b_c;
+  p.slip_check = slip_check;
   w.configure(p);
   std::vector<WheelReading> readings;
   for (int k = 0; k <= 100; ++k) {
@@ -306,6 +308,14 @@ TEST(WheelInputPose, WheelsThatSlipLoseToVision) {
   EXPECT_EQ(w.slipFrames(), 1u);
   double off_plane = 1;
   EXPECT_LT((still.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm(), 0.002);
+  // Without the slip check the wheel edge stays, and pulls the pose along the wheels' claim.
+  WheelInput trusting;
+  configureWheels(
+      trusting, T_b_c, [&](double t) { return still * rvwo::SE2(0.6 * t, 0, 0); }, false);
+  ASSERT_TRUE(trusting.optimisePose(f.problem, &s));
+  EXPECT_FALSE(s.slip);
+  const rvwo::SE2 pulled = still.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane);
+  EXPECT_GT(pulled.translation().x(), 0.004);
   // The same frame with wheels that tell the truth: no slip.
   WheelInput honest;
   configureWheels(honest, T_b_c, [&](double) { return still; });

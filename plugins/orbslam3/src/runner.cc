@@ -89,8 +89,9 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
         << "\n";
     out << "Tracking.Planar: " << (wheels->planar ? 1 : 0) << "\nTracking.Kernel: \""
         << (wheels->huber ? "huber" : "adaptive") << "\"\nTracking.BarronScale: " << real(wheels->barron_scale)
-        << "\nTracking.SigmaZ: " << real(wheels->sigma_z) << "\nTracking.SigmaRollPitch: " << real(wheels->sigma_rollpitch)
-        << "\n";
+        << "\nTracking.SigmaZ: " << real(wheels->sigma_z)
+        << "\nTracking.SigmaRollPitch: " << real(wheels->sigma_rollpitch)
+        << "\nTracking.SlipCheck: " << (wheels->slip_check ? 1 : 0) << "\n";
     for (const auto& [key, value] : more) out << key << ": " << value << "\n";
   }
   if (!out.flush()) throw std::runtime_error("cannot write " + path);

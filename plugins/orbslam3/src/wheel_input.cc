@@ -1,6 +1,7 @@
 // Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
 #include "rvwo/orbslam3/wheel_input.h"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -46,6 +47,16 @@ struct WheelInput::Impl {
   std::optional<Se2XyzStereoEdge> stereo;
   bool slipping = false;
   std::size_t slip_frames = 0;
+  // The last frame optimisePose placed, and the last one of those vision went on to track: after
+  // a stretch on the wheels alone the wheel edge starts there, so that it carries the stretch's
+  // whole uncertainty. (Tied to the previous frame, itself the wheels' guess, it held the frame
+  // to the stretch's drift: vision back after the 2 s blackout at 45 s found the old map 2.3 deg
+  // off the wheels and lost to them; the ATE doubled.)
+  struct Placed {
+    double t = 0.0;
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    bool set = false;
+  } solved, anchor;
 
   void makeEdges(const PoseProblem& p) {
     if (camera && camera->fx() == p.fx && camera->fy() == p.fy && camera->cx() == p.cx && camera->cy() == p.cy &&
@@ -103,6 +114,7 @@ void WheelInput::configure(const std::string& settings_path) {
   p.barron_scale = s.number("Tracking.BarronScale").value_or(p.barron_scale);
   p.sigma_z = s.number("Tracking.SigmaZ").value_or(p.sigma_z);
   p.sigma_rollpitch = s.number("Tracking.SigmaRollPitch").value_or(p.sigma_rollpitch);
+  p.slip_check = s.number("Tracking.SlipCheck").value_or(1.0) != 0.0;
   if (!(p.barron_scale > 0) || !(p.sigma_z >= 0) || !(p.sigma_rollpitch >= 0))
     throw std::invalid_argument(settings_path +
                                 ": Tracking.BarronScale must be > 0, Tracking.SigmaZ and .SigmaRollPitch >= 0");
@@ -153,8 +165,10 @@ Eigen::Isometry3d WheelInput::predict(const Eigen::Isometry3d& T_ci_w, double ti
 void WheelInput::frameTracked(double t, bool visual, int features) {
   if (!impl_) return;
   Impl& m = *impl_;
-  // Predictions start at the last frame: a second before it is margin enough (bounded memory).
-  m.odometry.dropBefore(t - 1.0);
+  if (visual && m.solved.set && m.solved.t == t) m.anchor = m.solved;
+  // Predictions start at the last frame, wheel edges at the last visual one: a second before
+  // either is margin enough. (Memory stays bounded: at most a minute of readings.)
+  m.odometry.dropBefore(std::max(t - 60.0, std::min(t, m.anchor.set ? m.anchor.t : t) - 1.0));
   if (visual) {
     m.run = 0;
     m.keyframe = false;
@@ -207,9 +221,10 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   std::optional<WheelDelta> delta;
   std::optional<WheelEdge> edge;
   Eigen::Vector3d x_prev = Eigen::Vector3d::Zero();
-  if (pb.has_previous && covers(pb.t_previous, pb.t)) {
-    x_prev = m.planarOf(pb.T_cp_w);
-    delta = m.odometry.integrate(pb.t_previous, pb.t);
+  const bool from_anchor = m.run > 0 && m.anchor.set && covers(m.anchor.t, pb.t);
+  if (from_anchor || (pb.has_previous && covers(pb.t_previous, pb.t))) {
+    x_prev = from_anchor ? m.anchor.x : m.planarOf(pb.T_cp_w);
+    delta = m.odometry.integrate(from_anchor ? m.anchor.t : pb.t_previous, pb.t);
     try {
       edge.emplace(*delta);
     } catch (const std::invalid_argument&) {  // degenerate covariance: vision alone
@@ -225,7 +240,7 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   // test, without its labels: ORB-SLAM3 has none yet in tracking). Among walkers the wheels side
   // with the static points and keep the pose (looksLikeSlip).
   bool slip = false;
-  if (edge) {
+  if (edge && m.params.slip_check) {
     const double prior_chi2 = (edge->sqrtInformation() * edge->residual(x_prev, x)).squaredNorm();
     const bool strained = prior_chi2 > kChi2WheelOutlier;
     if (m.slipping || strained || static_cast<double>(n) > 1.3 * r.inliers + 10) {
@@ -253,6 +268,7 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   }
   if (slip) ++m.slip_frames;
   m.slipping = slip;
+  m.solved = {pb.t, x, true};
   // Eq. 6: every match's latest whitened error (outliers included: that is the point).
   if (!m.params.huber) {
     for (std::size_t k = 0; k < n; ++k) m.reliability.observe(pb.matches[k].id, std::nullopt, r.error[k]);

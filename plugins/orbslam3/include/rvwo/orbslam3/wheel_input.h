@@ -59,6 +59,7 @@ struct WheelInputParams {
   double barron_scale = 2.0;      // Barron's c, in units of the chi2 gate's root [Tracking.BarronScale]
   double sigma_z = 0.01;          // m: the body's height off the plane [Tracking.SigmaZ]
   double sigma_rollpitch = 0.01;  // rad: its roll and pitch [Tracking.SigmaRollPitch]
+  bool slip_check = true;         // vision alone may overrule wheels that slip [Tracking.SlipCheck: 1 | 0]
   // Noise densities of the odometry [Odometry.Noise*] and the reliability model [Reliability.*]
   // are read from the settings into the plugin's own (C++17) types.
 };
