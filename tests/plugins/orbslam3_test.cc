@@ -3,6 +3,7 @@
 // directly, the keyframe rule, settings, bad readings.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -322,6 +323,53 @@ TEST(WheelInputPose, WheelsThatSlipLoseToVision) {
   ASSERT_TRUE(honest.optimisePose(f.problem, &s));
   EXPECT_FALSE(s.slip);
   EXPECT_LT((still.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm(), 0.002);
+}
+
+// After frames on the wheels alone, the wheel edge starts at the last frame vision tracked and
+// carries the whole stretch's uncertainty: the wheels' drift over the stretch does not hold the
+// frame where vision is back. (From the previous frame, itself the wheels' guess, the edge is
+// tight and holds the drift.)
+TEST(WheelInputPose, AfterAStretchOnTheWheelsTheEdgeStartsAtTheLastVisualFrame) {
+  const Eigen::Isometry3d T_b_c = tiltedCamera();
+  auto truth = [](double t) { return rvwo::SE2(0.5 * t, 0.0, 0.2); };
+  // The wheels claim 10 % more distance than driven (a wrong radius): 3.5 cm over 0.7 s.
+  auto claimed = [](double t) { return rvwo::SE2(0.55 * t, 0.0, 0.2); };
+  WheelInput w;
+  configureWheels(w, T_b_c, claimed, false);  // no slip check: the edge alone is under test
+  StereoFrame a(truth(0.2), T_b_c, 200, 0.0, 8);
+  a.problem.t = 0.2;
+  a.problem.T_c_w = cameraPose(truth(0.2), T_b_c);
+  PoseSolution s;
+  ASSERT_TRUE(w.optimisePose(a.problem, &s));
+  w.frameTracked(0.2, true, 1000);
+  for (int k = 3; k <= 9; ++k) w.frameTracked(0.1 * k, false, 0);  // blind: the wheels carry it
+  // Vision is back at 1.0 with few, near points; the frame before (0.9) sits where the wheels put it.
+  const rvwo::SE2 x_09 = truth(0.2) * claimed(0.2).inverse() * claimed(0.9);
+  StereoFrame b(truth(1.0), T_b_c, 40, 0.0, 9);
+  for (PoseMatch& m : b.problem.matches) {  // keep them near: 1.5 to 3 m
+    const Eigen::Isometry3d T_c_w = cameraPose(truth(1.0), T_b_c);
+    const Eigen::Vector3d P_c = T_c_w * m.P_w;
+    const double f = std::min(1.0, 3.0 / P_c.z());
+    m.P_w = T_c_w.inverse() * (P_c * f);
+    m.u = 400 * P_c.x() / P_c.z() + 319.5;
+    m.v = 400 * P_c.y() / P_c.z() + 239.5;
+    m.u_right = m.u - b.problem.bf / (P_c.z() * f);
+  }
+  b.problem.t = 1.0;
+  b.problem.has_previous = true;
+  b.problem.t_previous = 0.9;
+  b.problem.T_cp_w = cameraPose(x_09, T_b_c);
+  b.problem.T_c_w = cameraPose(x_09 * claimed(0.9).inverse() * claimed(1.0), T_b_c);
+  ASSERT_TRUE(w.optimisePose(b.problem, &s));
+  double off_plane = 1;
+  const double error = (truth(1.0).inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm();
+  EXPECT_LT(error, 0.008);
+  // Tied to the previous frame instead (vision was never lost), the same frame stays with the drift.
+  WheelInput tied;
+  configureWheels(tied, T_b_c, claimed, false);
+  ASSERT_TRUE(tied.optimisePose(b.problem, &s));
+  const double tied_error = (truth(1.0).inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm();
+  EXPECT_GT(tied_error, 2 * error);
 }
 
 TEST(WheelInputPose, MonocularAndInactiveLeaveItToOrbSlam3) {
