@@ -199,6 +199,68 @@ TEST(WheelsAgainstVision, SlipIsWheelsClaimingMotionVisionDidNotSee) {
   EXPECT_FALSE(looksLikeSlip(spin, SE2(0.0, 0.0, -0.15)));
 }
 
+// The slip decision on hand-made evidence: wheels claiming 10 cm and 0.05 rad, vision alone seeing
+// the robot stand still.
+TEST(WheelsAgainstVision, SlipStartsOnClearEvidenceAndGoesOnWhileTheWheelsStillLie) {
+  WheelDelta d;
+  d.dp << 0.10, 0.0;
+  d.dphi = 0.05;
+  d.covariance = Eigen::Vector3d(1e-6, 1e-6, 1e-6).asDiagonal();
+  SlipEvidence e;
+  e.wheels = &d;
+  e.T_b0_b1_fused = SE2(0.06, 0.0, 0.03);  // pulled between the two
+  e.T_b0_b1_vision = SE2(0.0, 0.0, 0.0);
+  e.fused_inliers = 100;
+  e.vision_inliers = 150;  // > 1.3 x 100 + 10
+  e.candidates = 160;
+  e.min_to_start = 60;
+  e.min_to_go_on = 30;
+  EXPECT_TRUE(decideSlip(e));
+  // Each condition of a start, broken alone:
+  SlipEvidence b = e;
+  b.vision_inliers = 140;  // not clearly more ...
+  EXPECT_FALSE(decideSlip(b));
+  b.strained = true;  // ... but noticeably more with the wheel edge beyond its gate
+  EXPECT_TRUE(decideSlip(b));
+  b = e;
+  b.candidates = 177;  // vision alone leaves more than 15 % of the candidates unexplained
+  EXPECT_FALSE(decideSlip(b));
+  b = e;
+  b.min_to_start = 151;  // too few for vision to place the frame
+  EXPECT_FALSE(decideSlip(b));
+  b = e;
+  b.T_b0_b1_vision = SE2(0.2, 0.0, 0.05);  // vision went farther than the wheels: no slip does that
+  EXPECT_FALSE(decideSlip(b));
+  // Strained, vision explains only a few more, but both motions lie beyond the wheels' tolerance.
+  b = e;
+  b.strained = true;
+  b.vision_inliers = 101;
+  b.candidates = 110;
+  EXPECT_TRUE(decideSlip(b));
+  b.T_b0_b1_fused = SE2(0.099, 0.0, 0.05);  // the fused pose sided with the wheels
+  EXPECT_FALSE(decideSlip(b));
+  // Going on: about as many as fused, the wheels still claiming what vision does not see.
+  b = e;
+  b.was_slipping = true;
+  b.vision_inliers = 99;
+  EXPECT_TRUE(decideSlip(b));
+  b.vision_inliers = 97;  // below 98 % of the fused pose's
+  EXPECT_FALSE(decideSlip(b));
+  b.vision_inliers = 99;
+  b.min_to_go_on = 100;
+  EXPECT_FALSE(decideSlip(b));
+  b.min_to_go_on = 30;
+  b.T_b0_b1_vision = SE2(0.097, 0.0, 0.049);  // the wheels agree with vision again: the slip ends
+  EXPECT_FALSE(decideSlip(b));
+  // Worth checking at all: a slip going on, a strained edge, or many matches unexplained.
+  EXPECT_FALSE(slipWorthChecking(false, false, 140, 100));
+  EXPECT_TRUE(slipWorthChecking(false, false, 141, 100));
+  EXPECT_TRUE(slipWorthChecking(true, false, 100, 100));
+  EXPECT_TRUE(slipWorthChecking(false, true, 100, 100));
+  e.wheels = nullptr;
+  EXPECT_THROW(decideSlip(e), std::invalid_argument);
+}
+
 TEST(PlanarPose, StereoObservationWithoutStereoEdgeThrows) {
   Scene s(Eigen::Vector3d::Zero(), 3, 0.0, 5);
   Eigen::Vector3d x = Eigen::Vector3d::Zero();

@@ -356,19 +356,16 @@ struct Estimator::Impl {
   Eigen::Matrix<double, N, N> sqrtInformation(const Eigen::Vector3d& x, const Eigen::Vector3d& P, double sigma) const {
     return edge<N>().sqrtInformation(x, P, sigma, opt.out_of_plane);
   }
-  // Whitened chi2 of observation z = (u, v, u_R) at x (u_R unused when N = 2), with the
-  // information at x; false when the point does not project.
-  template <int N>
-  bool chi2(const Eigen::Vector3d& x, const Eigen::Vector3d& P, const Eigen::Vector3d& z, double sigma,
-            double* out) const {
-    Eigen::Matrix<double, N, 1> r;
-    if (!edge<N>().residual(x, P, z.head<N>(), &r)) return false;
-    *out = (sqrtInformation<N>(x, P, sigma) * r).squaredNorm();
-    return true;
-  }
+  // Whitened chi2 of observation z = (u, v, u_R) at x (u_R unused unless stereo), with the
+  // information at x (rvwo::whitenedChi2); false when the point does not project.
   bool chi2(bool stereo, const Eigen::Vector3d& x, const Eigen::Vector3d& P, const Eigen::Vector3d& z, double sigma,
             double* out) const {
-    return stereo ? chi2<3>(x, P, z, sigma, out) : chi2<2>(x, P, z, sigma, out);
+    PoseObservation o;
+    o.P_w = P;
+    o.z = z;
+    o.stereo = stereo;
+    o.sigma_px = sigma;
+    return whitenedChi2(mono_edge, stereo_edge ? &*stereo_edge : nullptr, o, x, opt.out_of_plane, out);
   }
   // The camera's pose in the world at the robot pose x = (x, y, theta).
   Eigen::Isometry3d T_w_c(const Eigen::Vector3d& x) const { return SE2::fromVector(x).isometry3() * rig.T_b_c; }
@@ -651,53 +648,38 @@ struct Estimator::Impl {
     const int to_place = (last_visual ? 1 : 3) * opt.min_inliers;
     if (!matches.empty()) {
       inliers = optimisePose(f, matches, prior, last_pose.vector(), &x, &inlier, &errors);
-      // Slip check: the wheels' motion against vision alone. When the wheels spin in place (or
-      // skid) every static landmark disagrees with them, so vision alone, started where the robot
-      // was, explains clearly more landmarks: it wins and the wheel edge is dropped for this
-      // frame. Among walkers the wheels side with the static landmarks and keep the pose. (Not
-      // tried when too few matches are left over for vision alone to win.)
-      // Once slipping, vision alone stays in charge while the wheels go on claiming motion it does
-      // not see and it explains no fewer matches: decided afresh each frame, the wheel prior pulled
-      // the pose a little every frame until vision alone won again, a sawtooth of up to 0.4 m.
+      // Slip check (rvwo::decideSlip): the wheels' motion against vision alone. When the wheels
+      // spin in place (or skid) every static landmark disagrees with them, so vision alone,
+      // started where the robot was, explains clearly more landmarks: it wins and the wheel edge
+      // is dropped for this frame. Among walkers the wheels side with the static landmarks and
+      // keep the pose.
       const double prior_chi2 =
           prior ? (prior->sqrtInformation() * prior->residual(last_pose.vector(), x)).squaredNorm() : 0.0;
-      if (prior && (was_slipping || static_cast<double>(matches.size()) > 1.3 * inliers + 10 ||
-                    prior_chi2 > kChi2WheelOutlier)) {
+      const bool strained = prior_chi2 > kChi2WheelOutlier;
+      if (prior && slipWorthChecking(was_slipping, strained, matches.size(), inliers)) {
         Eigen::Vector3d x_vision = last_pose.vector();
         std::vector<char> inlier_v;
         std::vector<double> errors_v;
         const int inliers_v =
             optimisePose(f, matches, std::nullopt, last_pose.vector(), &x_vision, &inlier_v, &errors_v);
-        const SE2 T_vision = last_pose.inverse() * SE2::fromVector(x_vision);
-        // ... by most of the matches, counting only landmarks no label has called dynamic (a
-        // walker close by, freshly mapped, once explained 376 of 422 matches and took vision alone
-        // 25 cm off in four frames), and in the way a slip would.
-        const int n_trusted = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
-        const int trusted_f = countTrusted(inlier), trusted_v = countTrusted(inlier_v);
-        // Vision alone explains clearly more; or, with the wheel edge beyond its 99.9 % gate at the
-        // fused pose (a strained compromise), noticeably more, or more while both the fused and
-        // vision's motions lie beyond the wheels' tolerance. A slow skid (3 mm a frame) and a slow
-        // spin on the spot pull the fused pose only a little each frame, never far enough to cost
-        // 30 % of the inliers; among walkers vision alone gained at most 4 % (measured).
-        const bool strained = prior_chi2 > kChi2WheelOutlier;
-        const bool disagree = wheelsDisagree(*delta, T_vision);
-        const bool better =
-            trusted_v > 1.3 * trusted_f + 10 ||
-            (strained &&
-             (trusted_v >= 1.05 * trusted_f + 10 ||
-              (disagree && trusted_v > trusted_f && wheelsDisagree(*delta, last_pose.inverse() * SE2::fromVector(x)))));
+        // Counting only landmarks no label has called dynamic: a walker close by, freshly mapped,
+        // once explained 376 of 422 matches and took vision alone 25 cm off in four frames.
+        SlipEvidence e;
+        e.wheels = &*delta;
+        e.T_b0_b1_fused = last_pose.inverse() * SE2::fromVector(x);
+        e.T_b0_b1_vision = last_pose.inverse() * SE2::fromVector(x_vision);
+        e.fused_inliers = countTrusted(inlier);
+        e.vision_inliers = countTrusted(inlier_v);
+        e.candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
+        e.strained = strained;
+        e.was_slipping = was_slipping;
         // Only vision that would place the frame overrules the wheels: mono, blind in a turn among
         // walkers and bumps, called 5 and 12 frames slips that vision could not place, and the
         // pose then held still for the 2 s after, while the robot turned 12 deg (threaded mono
         // combined, 41.7 and 45.3 s).
-        const bool would_place = trusted_v >= to_place;
-        const bool starts = better && would_place && trusted_v >= 0.85 * n_trusted &&
-                            trusted_v >= kSlipMinInliers * opt.min_inliers && looksLikeSlip(*delta, T_vision);
-        // Once slipping, vision alone stays in charge while it explains about as much and the
-        // wheels go on claiming motion it does not see (beyond their tolerance, or their gate).
-        const bool goes_on = was_slipping && would_place && trusted_v >= 0.98 * trusted_f &&
-                             looksLikeSlip(*delta, T_vision) && (disagree || strained);
-        if (starts || goes_on) {
+        e.min_to_go_on = to_place;
+        e.min_to_start = std::max(to_place, kSlipMinInliers * opt.min_inliers);
+        if (decideSlip(e)) {
           slipping = true;
           x = x_vision;
           inliers = inliers_v;
@@ -1003,7 +985,7 @@ struct Estimator::Impl {
         auto fits = [&](const KeyFrame& k, int f) {
           double e2;
           const double sigma = opt.sigma_px * std::pow(opt.scale_factor, k.f.keypoints[f].octave);
-          return chi2<2>(k.x, P, observation(k.f, f), sigma, &e2) && e2 <= kChi2Mono;
+          return chi2(false, k.x, P, observation(k.f, f), sigma, &e2) && e2 <= kChi2Mono;
         };
         if (!fits(*kf, i) || !fits(old, static_cast<int>(j))) continue;
         MapPoint& p = newPoint(kf, i, P, (P - c1).norm());

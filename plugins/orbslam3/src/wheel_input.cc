@@ -45,7 +45,7 @@ struct WheelInput::Impl {
   std::optional<PinholeCamera> camera;  // made with the first problem (ORB-SLAM3's intrinsics)
   std::optional<Se2XyzMonoEdge> mono;
   std::optional<Se2XyzStereoEdge> stereo;
-  bool slipping = false;
+  bool slipping = false;  // the previous frame tracked was a slip
   std::size_t slip_frames = 0;
   // The last frame optimisePose placed, and the last one of those vision went on to track: after
   // a stretch on the wheels alone the wheel edge starts there, so that it carries the stretch's
@@ -56,6 +56,7 @@ struct WheelInput::Impl {
     double t = 0.0;
     Eigen::Vector3d x = Eigen::Vector3d::Zero();
     bool set = false;
+    bool slip = false;  // vision alone overruled the wheels
   } solved, anchor;
 
   void makeEdges(const PoseProblem& p) {
@@ -165,7 +166,11 @@ Eigen::Isometry3d WheelInput::predict(const Eigen::Isometry3d& T_ci_w, double ti
 void WheelInput::frameTracked(double t, bool visual, int features) {
   if (!impl_) return;
   Impl& m = *impl_;
-  if (visual && m.solved.set && m.solved.t == t) m.anchor = m.solved;
+  const bool solved = m.solved.set && m.solved.t == t;
+  if (visual && solved) m.anchor = m.solved;
+  // ORB-SLAM3 solves a frame up to twice (motion model, local map): the last solve decides.
+  m.slipping = solved && m.solved.slip;
+  m.slip_frames += m.slipping;
   // Predictions start at the last frame, wheel edges at the last visual one: a second before
   // either is margin enough. (Memory stays bounded: at most a minute of readings.)
   m.odometry.dropBefore(std::max(t - 60.0, std::min(t, m.anchor.set ? m.anchor.t : t) - 1.0));
@@ -241,34 +246,29 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   // with the static points and keep the pose (looksLikeSlip).
   bool slip = false;
   if (edge && m.params.slip_check) {
-    const double prior_chi2 = (edge->sqrtInformation() * edge->residual(x_prev, x)).squaredNorm();
-    const bool strained = prior_chi2 > kChi2WheelOutlier;
-    if (m.slipping || strained || static_cast<double>(n) > 1.3 * r.inliers + 10) {
+    const bool strained = (edge->sqrtInformation() * edge->residual(x_prev, x)).squaredNorm() > kChi2WheelOutlier;
+    if (slipWorthChecking(m.slipping, strained, n, r.inliers)) {
       Eigen::Vector3d x_vision = x_prev;
       PlanarPoseResult rv = optimisePlanarPose(*m.mono, &*m.stereo, obs, WheelPrior{}, opt, &x_vision);
-      const SE2 T_vision = SE2::fromVector(x_prev).inverse() * SE2::fromVector(x_vision);
-      const bool disagree = wheelsDisagree(*delta, T_vision);
-      const bool better =
-          rv.inliers > 1.3 * r.inliers + 10 ||
-          (strained && (rv.inliers >= 1.05 * r.inliers + 10 ||
-                        (disagree && rv.inliers > r.inliers &&
-                         wheelsDisagree(*delta, SE2::fromVector(x_prev).inverse() * SE2::fromVector(x)))));
+      SlipEvidence e;
+      e.wheels = &*delta;
+      e.T_b0_b1_fused = SE2::fromVector(x_prev).inverse() * SE2::fromVector(x);
+      e.T_b0_b1_vision = SE2::fromVector(x_prev).inverse() * SE2::fromVector(x_vision);
+      e.fused_inliers = r.inliers;
+      e.vision_inliers = rv.inliers;
+      e.candidates = static_cast<int>(n);
+      e.strained = strained;
+      e.was_slipping = m.slipping;
       // ORB-SLAM3's bar for a tracked frame (30 inliers), twice over, for vision to overrule the wheels.
-      const bool enough = rv.inliers >= 60;
-      const bool starts =
-          better && enough && rv.inliers >= 0.85 * static_cast<double>(n) && looksLikeSlip(*delta, T_vision);
-      const bool goes_on = m.slipping && enough && rv.inliers >= 0.98 * r.inliers && looksLikeSlip(*delta, T_vision) &&
-                           (disagree || strained);
-      if (starts || goes_on) {
+      e.min_to_start = e.min_to_go_on = 60;
+      if (decideSlip(e)) {
         slip = true;
         x = x_vision;
         r = std::move(rv);
       }
     }
   }
-  if (slip) ++m.slip_frames;
-  m.slipping = slip;
-  m.solved = {pb.t, x, true};
+  m.solved = {pb.t, x, true, slip};
   // Eq. 6: every match's latest whitened error (outliers included: that is the point).
   if (!m.params.huber) {
     for (std::size_t k = 0; k < n; ++k) m.reliability.observe(pb.matches[k].id, std::nullopt, r.error[k]);

@@ -146,4 +146,21 @@ bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
          std::fabs(wheels.dphi - T_b0_b1_vision.angle()) > tol.rotation;
 }
 
+bool slipWorthChecking(bool was_slipping, bool strained, std::size_t matches, int fused_inliers) {
+  return was_slipping || strained || static_cast<double>(matches) > 1.3 * fused_inliers + 10;
+}
+
+bool decideSlip(const SlipEvidence& e) {
+  if (!e.wheels) throw std::invalid_argument("decideSlip: no wheel delta");
+  const WheelDelta& d = *e.wheels;
+  const int f = e.fused_inliers, v = e.vision_inliers;
+  const bool disagree = wheelsDisagree(d, e.T_b0_b1_vision);
+  const bool better = v > 1.3 * f + 10 ||
+                      (e.strained && (v >= 1.05 * f + 10 || (disagree && v > f && wheelsDisagree(d, e.T_b0_b1_fused))));
+  const bool slip_like = looksLikeSlip(d, e.T_b0_b1_vision);
+  const bool starts = better && v >= e.min_to_start && v >= 0.85 * e.candidates && slip_like;
+  const bool goes_on = e.was_slipping && v >= e.min_to_go_on && v >= 0.98 * f && slip_like && (disagree || e.strained);
+  return starts || goes_on;
+}
+
 }  // namespace rvwo

@@ -129,6 +129,7 @@ class WheelInput {
   // The pose of a frame on SE(2): false (and nothing written) when optimisesPoses() is false or
   // the problem has fewer than 3 matches, for ORB-SLAM3's own PoseOptimization to run instead.
   bool optimisePose(const PoseProblem& problem, PoseSolution* solution);
+  // Frames tracked (frameTracked) whose last optimisePose had vision alone overrule the wheels.
   std::size_t slipFrames() const;
 
  private:

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <vector>
 
 #include "rvwo/edges/se2.h"
@@ -92,5 +93,35 @@ bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
 
 // Whether vision's motion differs from the wheels' beyond their tolerance.
 bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
+
+// Everything the slip decision weighs for one frame: the pose solved with the wheel edge (fused)
+// and again without it (vision alone, started at the edge's first pose).
+struct SlipEvidence {
+  const WheelDelta* wheels = nullptr;  // the wheel edge's delta
+  // The two solves' motions over the delta.
+  SE2 T_b0_b1_fused, T_b0_b1_vision;
+  // Their inliers, counted as the caller counts them (the estimator: only landmarks no label has
+  // called dynamic), and the candidates counted alike (what could have been inliers).
+  int fused_inliers = 0, vision_inliers = 0, candidates = 0;
+  bool strained = false;      // the wheel edge beyond kChi2WheelOutlier at the fused pose
+  bool was_slipping = false;  // the previous frame was decided a slip
+  // Vision-alone inliers a slip needs to start, and to go on (at least what places a frame).
+  int min_to_start = 0, min_to_go_on = 0;
+};
+
+// Whether the frame is worth solving again without the wheels: a slip goes on, the wheel edge is
+// strained, or the fused pose left many matches unexplained.
+bool slipWorthChecking(bool was_slipping, bool strained, std::size_t matches, int fused_inliers);
+
+// Whether vision alone overrules the wheels for this frame. A slip starts when vision alone explains
+// clearly more (or, the wheel edge strained, noticeably more, or more while both motions lie
+// beyond the wheels' tolerance), nearly all candidates, and in the way a slip would (looksLikeSlip).
+// Once slipping, vision alone stays in charge while it explains about as much and the wheels go on
+// claiming motion it does not see (beyond their tolerance or their gate): decided afresh each frame,
+// the wheel prior pulled the pose a little every frame until vision alone won again, a sawtooth of
+// up to 0.4 m. A slow skid (3 mm a frame) or a slow spin on the spot pulls the fused pose only a
+// little each frame, never far enough to cost 30 % of the inliers; among walkers vision alone gained
+// at most 4 % (measured in the estimator).
+bool decideSlip(const SlipEvidence& e);
 
 }  // namespace rvwo
