@@ -192,6 +192,8 @@ Camera.T_b_c: !!opencv-matrix
    dt: d
    data: [0, 0, 1, 0.25, -1, 0, 0, 0, 0, -1, 0, 0.4, 0, 0, 0, 1]
 Estimator.Features: 800
+Estimator.SlipHold: 1.5
+Estimator.TrustedMaxPs: 0.2
 Reliability.Ph: 0.8
 )";
 
@@ -204,6 +206,9 @@ TEST(Options, FromSettings) {
   EXPECT_DOUBLE_EQ(rig.T_b_c.linear()(1, 0), -1.0);
   const EstimatorOptions o = readEstimatorOptions(s);
   EXPECT_EQ(o.features, 800);
+  EXPECT_DOUBLE_EQ(o.slip_hold, 1.5);
+  EXPECT_DOUBLE_EQ(o.trusted_max_ps, 0.2);
+  EXPECT_EQ(o.slip_hold_min_frames, 3);  // the default where the file is silent
   EXPECT_DOUBLE_EQ(o.reliability.p_h, 0.8);
 }
 
@@ -229,6 +234,14 @@ TEST(Options, ErrorsNameTheKey) {
   EXPECT_NE(message(bad_rot).find("Camera.T_b_c is not a rigid transform"), std::string::npos);
   std::string bad_window = y + "Estimator.Window: 1\n";
   EXPECT_NE(message(bad_window).find("Estimator.Window"), std::string::npos);
+  auto with = [&](const std::string& from, const std::string& to) {
+    std::string c = y;
+    return c.replace(c.find(from), from.size(), to);
+  };
+  EXPECT_NE(message(with("SlipHold: 1.5", "SlipHold: -1")).find("Estimator.SlipHold: >= 0"), std::string::npos);
+  EXPECT_NE(message(y + "Estimator.SlipHoldMinFrames: 0\n").find("Estimator.SlipHoldMinFrames"), std::string::npos);
+  EXPECT_NE(message(y + "Estimator.SlipMinInliers: 0.5\n").find("Estimator.SlipMinInliers"), std::string::npos);
+  EXPECT_NE(message(with("TrustedMaxPs: 0.2", "TrustedMaxPs: 0")).find("Estimator.TrustedMaxPs"), std::string::npos);
 }
 
 // Fisheye stereo (ORB-SLAM3's KannalaBrandt8 pair, the right camera turned a little): the

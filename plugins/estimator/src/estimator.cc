@@ -36,18 +36,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-// Blind frames this soon after a slip hold the pose instead of following the wheels (s): a
-// walker passing close in front during a slip blinded tracking for 1.5 s, and the wheels, still
-// spinning, took the pose 0.4 rad off (0.5 s of hold: 0.74 % of the path; 2 s: 0.11 %).
-constexpr double kSlipHold = 2.0;
-// ... if the slip lasted this many frames: a real one goes on (the suite's slips: 16 to 30 slip
-// frames a second), while a frame or two of vision alone winning, among walkers not yet labelled,
-// is no slip to hold on (threaded combined, 84.9 s: two such frames, then a blackout held the
-// pose through a turn, 27 deg off).
-constexpr int kSlipHoldMinFrames = 3;
-// A slip starts only with this many times Estimator.MinInliers trusted landmarks behind vision
-// alone (threaded combined, 84.87 s: 14 of 127 matches trusted, the rest walkers, made a slip).
-constexpr int kSlipMinInliers = 2;
 // Mono: new points are triangulated between a keyframe and this many keyframes before it.
 constexpr int kTriangulationNeighbours = 5;
 
@@ -190,6 +178,10 @@ void EstimatorOptions::validate() const {
   if (!(sigma_px > 0)) fail("Estimator.SigmaPx: > 0");
   if (!(mono_min_baseline > 0)) fail("Estimator.MonoMinBaseline: > 0");
   if (!(mono_min_parallax > 0 && mono_min_parallax < 45)) fail("Estimator.MonoMinParallax: in (0, 45) degrees");
+  if (!(slip_hold >= 0)) fail("Estimator.SlipHold: >= 0 s");
+  if (slip_hold_min_frames < 1) fail("Estimator.SlipHoldMinFrames: >= 1");
+  if (!(slip_min_inliers >= 1)) fail("Estimator.SlipMinInliers: >= 1 (times Estimator.MinInliers)");
+  if (!(trusted_max_ps > 0 && trusted_max_ps <= 1)) fail("Estimator.TrustedMaxPs: in (0, 1]");
   if (kernel == KernelChoice::kFixed && std::isnan(fixed_alpha)) fail("kernel fixed: alpha is NaN");
   reliability.validate();
   wheel_noise.validate();
@@ -316,7 +308,7 @@ struct Estimator::Impl {
     return 1.0;
   }
 
-  // A landmark no label has called dynamic (P_s below 0.1: one person label lifts it to 0.16),
+  // A landmark no label has called dynamic (P_s below Estimator.TrustedMaxPs),
   // and, with labels coming from the segmentation thread, not one whose keyframe still waits for
   // its labels: a keyframe's new points are the closest features, often a walker's, and counted
   // as trusted for the frame or two until its labels came they placed frames and made vision
@@ -331,7 +323,7 @@ struct Estimator::Impl {
       }
     }
     const std::optional<LandmarkReliability> r = reliability.get(point);
-    return !r || r->ps < 0.1;
+    return !r || r->ps < opt.trusted_max_ps;
   }
   std::vector<char> trustedOf(const std::vector<Match>& matches) const {
     std::vector<char> trusted(matches.size());
@@ -678,7 +670,7 @@ struct Estimator::Impl {
         // pose then held still for the 2 s after, while the robot turned 12 deg (threaded mono
         // combined, 41.7 and 45.3 s).
         e.min_to_go_on = to_place;
-        e.min_to_start = std::max(to_place, kSlipMinInliers * opt.min_inliers);
+        e.min_to_start = std::max(to_place, static_cast<int>(std::ceil(opt.slip_min_inliers * opt.min_inliers)));
         if (decideSlip(e)) {
           slipping = true;
           x = x_vision;
@@ -718,10 +710,11 @@ struct Estimator::Impl {
       timings.add("relocalise", msSince(t5));
     }
     // Blind right after a slip, the wheels are the last to trust: the pose stays where vision
-    // left it (for at most kSlipHold) and the wheel edges across it keep their Huber kernel.
+    // left it (for at most Estimator.SlipHold) and the wheel edges across it keep their Huber kernel.
     // (Vision's last motion, extrapolated instead, once carried a slip frame's few centimetres
     // for two seconds: a 3.8 m error, combined scenario, threaded.)
-    const bool after_slip = !visual && !slipping && t - last_slip_t <= kSlipHold && slip_run >= kSlipHoldMinFrames;
+    const bool after_slip =
+        !visual && !slipping && t - last_slip_t <= opt.slip_hold && slip_run >= opt.slip_hold_min_frames;
     if (after_slip) {
       std::lock_guard<std::mutex> slock(slip_mutex);
       slip_times.push_back(t);

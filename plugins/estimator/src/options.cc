@@ -134,6 +134,10 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Estimator.SigmaPx", &o.sigma_px);
   num("Estimator.BarronScale", &o.barron_scale);
   num("Estimator.LabelDilation", &o.label_dilation_px);
+  num("Estimator.SlipMinInliers", &o.slip_min_inliers);
+  num("Estimator.SlipHold", &o.slip_hold);
+  num("Estimator.SlipHoldMinFrames", &o.slip_hold_min_frames);
+  num("Estimator.TrustedMaxPs", &o.trusted_max_ps);
   num("Estimator.SigmaZ", &o.out_of_plane.sigma_z);
   if (const auto v = s.number("Estimator.SigmaRollPitch"))
     o.out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * (*v) * (*v);

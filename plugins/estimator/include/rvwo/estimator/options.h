@@ -89,6 +89,25 @@ struct EstimatorOptions {
   double mono_min_baseline =
       0.05;  // m between camera centres; less (a turn on the spot) triangulates nothing (Estimator.MonoMinBaseline)
   double mono_min_parallax = 1.0;  // degrees between the two rays of a new point (Estimator.MonoMinParallax)
+  // ---- slips (wheels spinning or skidding: vision alone overrules them, rvwo::decideSlip)
+  // A slip starts only with this many times min_inliers trusted landmarks behind vision alone
+  // (Estimator.SlipMinInliers; threaded combined, 84.87 s: 14 of 127 matches trusted, the rest
+  // walkers, made a slip).
+  double slip_min_inliers = 2.0;
+  // Blind frames this soon after a slip hold the pose instead of following the wheels, s
+  // (Estimator.SlipHold): a walker passing close in front during a slip blinded tracking for
+  // 1.5 s, and the wheels, still spinning, took the pose 0.4 rad off (0.5 s of hold: 0.74 % of
+  // the path; 2 s: 0.11 %).
+  double slip_hold = 2.0;
+  // ... if the slip lasted at least this many frames (Estimator.SlipHoldMinFrames): a real one goes
+  // on (the suite's slips: 16 to 30 slip frames a second), while a frame or two of vision alone
+  // winning, among walkers not yet labelled, is no slip to hold on (threaded combined, 84.9 s: two
+  // such frames, then a blackout held the pose through a turn, 27 deg off).
+  int slip_hold_min_frames = 3;
+  // A landmark counts as static (trusted: it may place a frame and count in the slip test) while
+  // its probability of moving P_s stays below this (Estimator.TrustedMaxPs): one person label
+  // lifts P_s from the prior to 0.16.
+  double trusted_max_ps = 0.1;
   // ---- keyframes and local mapping
   int keyframe_max_frames = 15;  // a keyframe at least this often (frames) while tracking
   double keyframe_ratio = 0.75;  // or when fewer than this share of the reference keyframe's points are tracked
