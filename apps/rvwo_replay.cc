@@ -31,6 +31,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -361,18 +362,23 @@ class OrbSlam3Backend {
     for (; !waiting_.empty(); waiting_.pop_front()) progress(waiting_.front().timestamp, track(waiting_.front()));
   }
 
-  // T_w_b per frame ORB-SLAM3 kept (w: the base at its first keyframe), and the report.
+  // T_w_b per frame ORB-SLAM3 kept (w: the base at its first keyframe), and the report: with
+  // wheels, the plugin's frames on the wheels and slips.
   rvwo::apps::Trajectory finish(rvwo::estimator::Report* rep) {
     const auto result = runner_->finish(scratch_);
     rvwo::apps::Trajectory out;
     for (const auto& [t, T_c0_c] : result.T_c0_c) out.push_back({t, T_b_c_ * T_c0_c * T_b_c_.inverse()});
     rep->frames = track_ms_.size();
     rep->keyframes = result.keyframes;
-    rep->wheel_only_frames = lost_frames_;  // here: frames ORB-SLAM3 did not track
-    rep->wheel_only_intervals = lost_;
+    rep->wheel_only_frames = result.wheel_only_frames;
+    rep->wheel_only_intervals = result.wheel_only_intervals;
+    rep->slip_frames = result.slip_frames;
     rep->timings = {{"TrackFrame", rvwo::estimator::TimingStats::of(track_ms_)}};
     return out;
   }
+  // Frames ORB-SLAM3 did not track (lost, not initialised), and their stretches.
+  std::size_t lostFrames() const { return lost_frames_; }
+  const std::vector<std::pair<double, double>>& lost() const { return lost_; }
 
  private:
   // Returns whether ORB-SLAM3 tracks after the frame.
@@ -659,7 +665,10 @@ int main(int argc, char** argv) {
 #ifdef RVWO_WITH_ORBSLAM3
     if (orbslam3) {
       est = orbslam3->finish(&rep);
-      on_wheels.assign(est.size(), false);  // ORB-SLAM3 does not say which
+      for (const auto& p : est) {
+        on_wheels.push_back(std::any_of(rep.wheel_only_intervals.begin(), rep.wheel_only_intervals.end(),
+                                        [&](const auto& i) { return i.first <= p.t && p.t <= i.second; }));
+      }
     }
 #endif
     const double wall = elapsed();
@@ -698,15 +707,21 @@ int main(int argc, char** argv) {
         std::printf("  label images that could not be read: %zu (their keyframes went unlabelled; first: %s)\n", failed,
                     first.c_str());
     }
-    std::printf(
-        use_orbslam3 ? "  frames ORB-SLAM3 did not track (lost, not initialised): %zu" : "  frames on wheels only: %zu",
-        rep.wheel_only_frames);
-    for (std::size_t i = 0; i < rep.wheel_only_intervals.size() && i < 8; ++i) {
-      std::printf("%s%.2f-%.2f s", i ? ", " : " (", rep.wheel_only_intervals[i].first - first_t,
-                  rep.wheel_only_intervals[i].second - first_t);
-    }
-    if (rep.wheel_only_intervals.size() > 8) std::printf(", ... %zu stretches", rep.wheel_only_intervals.size());
-    std::printf("%s\n", rep.wheel_only_intervals.empty() ? "" : ")");
+    auto stretches = [&](const char* what, std::size_t count, const std::vector<std::pair<double, double>>& in) {
+      std::printf("  %s: %zu", what, count);
+      for (std::size_t i = 0; i < in.size() && i < 8; ++i)
+        std::printf("%s%.2f-%.2f s", i ? ", " : " (", in[i].first - first_t, in[i].second - first_t);
+      if (in.size() > 8) std::printf(", ... %zu stretches", in.size());
+      std::printf("%s\n", in.empty() ? "" : ")");
+    };
+#ifdef RVWO_WITH_ORBSLAM3
+    if (orbslam3)
+      stretches("frames ORB-SLAM3 did not track (lost, not initialised)", orbslam3->lostFrames(), orbslam3->lost());
+#endif
+    if (!use_orbslam3 || opt.mode == rvwo::estimator::Mode::kVw)
+      stretches("frames on wheels only", rep.wheel_only_frames, rep.wheel_only_intervals);
+    if (opt.mode == rvwo::estimator::Mode::kVw && use_orbslam3)
+      std::printf("  frames where vision overruled the wheels (a slip): %zu\n", rep.slip_frames);
     if (opt.mode == rvwo::estimator::Mode::kVw && !use_orbslam3) {
       std::printf(
           "  frames where vision overruled the wheels (a slip): %zu; wheel edges local BA found wrong: %zu; "

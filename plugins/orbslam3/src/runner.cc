@@ -192,6 +192,10 @@ Runner::Result Runner::finish(const std::string& scratch) {
   s.SaveKeyFrameTrajectoryEuRoC(keyframes);
   r.T_c0_c = readEuroc(frames);
   r.keyframes = readEuroc(keyframes).size();
+  const WheelInput& w = s.Wheels();  // patch 0002
+  r.wheel_only_frames = w.wheelOnlyFrames();
+  r.wheel_only_intervals = w.wheelOnlyIntervals();
+  r.slip_frames = w.slipFrames();
   std::remove(frames.c_str());
   std::remove(keyframes.c_str());
   return r;

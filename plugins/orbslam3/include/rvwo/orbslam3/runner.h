@@ -70,10 +70,14 @@ class Runner {
   bool track(double t, const cv::Mat& image, const cv::Mat& right_or_depth);
   // Stops ORB-SLAM3 and returns each frame's T_c0_c (c0: the first keyframe of its largest map)
   // as ORB-SLAM3 saves them (refined by local BA and loop closing; frames it lost are absent),
-  // and the keyframe count. `scratch` is a file prefix for ORB-SLAM3's trajectory files.
+  // and the keyframe count; with wheels, the plugin's counts (WheelInput). `scratch` is a file
+  // prefix for ORB-SLAM3's trajectory files.
   struct Result {
     std::vector<std::pair<double, Eigen::Isometry3d>> T_c0_c;
     std::size_t keyframes = 0;
+    std::size_t wheel_only_frames = 0;                            // frames the wheels placed
+    std::vector<std::pair<double, double>> wheel_only_intervals;  // [first, last] frame time of each stretch
+    std::size_t slip_frames = 0;                                  // frames where vision overruled the wheels
   };
   Result finish(const std::string& scratch);
 
