@@ -645,9 +645,7 @@ struct Estimator::Impl {
       // started where the robot was, explains clearly more landmarks: it wins and the wheel edge
       // is dropped for this frame. Among walkers the wheels side with the static landmarks and
       // keep the pose.
-      const double prior_chi2 =
-          prior ? (prior->sqrtInformation() * prior->residual(last_pose.vector(), x)).squaredNorm() : 0.0;
-      const bool strained = prior_chi2 > kChi2WheelOutlier;
+      const bool strained = prior && wheelEdgeStrained(*prior, last_pose.vector(), x);
       if (prior && slipWorthChecking(was_slipping, strained, matches.size(), inliers)) {
         Eigen::Vector3d x_vision = last_pose.vector();
         std::vector<char> inlier_v;

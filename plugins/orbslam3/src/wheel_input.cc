@@ -249,7 +249,7 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   // with the static points and keep the pose (looksLikeSlip).
   bool slip = false;
   if (edge && m.params.slip_check) {
-    const bool strained = (edge->sqrtInformation() * edge->residual(x_prev, x)).squaredNorm() > kChi2WheelOutlier;
+    const bool strained = wheelEdgeStrained(*edge, x_prev, x);
     if (slipWorthChecking(m.slipping, strained, n, r.inliers)) {
       Eigen::Vector3d x_vision = x_prev;
       PlanarPoseResult rv = optimisePlanarPose(*m.mono, &*m.stereo, obs, WheelPrior{}, opt, &x_vision);

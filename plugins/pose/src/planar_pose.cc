@@ -146,6 +146,10 @@ bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
          std::fabs(wheels.dphi - T_b0_b1_vision.angle()) > tol.rotation;
 }
 
+bool wheelEdgeStrained(const WheelEdge& edge, const Eigen::Vector3d& x_prev, const Eigen::Vector3d& x) {
+  return (edge.sqrtInformation() * edge.residual(x_prev, x)).squaredNorm() > kChi2WheelOutlier;
+}
+
 bool slipWorthChecking(bool was_slipping, bool strained, std::size_t matches, int fused_inliers) {
   return was_slipping || strained || static_cast<double>(matches) > 1.3 * fused_inliers + 10;
 }

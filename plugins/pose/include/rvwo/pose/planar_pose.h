@@ -75,6 +75,10 @@ bool whitenedChi2(const Se2XyzMonoEdge& mono, const Se2XyzStereoEdge* stereo, co
 // A wheel edge's gate (3 DoF, 99.9 %).
 constexpr double kChi2WheelOutlier = 16.27;
 
+// Whether the wheel edge from x_prev to x lies beyond its gate: vision held the pose where the
+// wheels' claim does not fit (a strained compromise).
+bool wheelEdgeStrained(const WheelEdge& edge, const Eigen::Vector3d& x_prev, const Eigen::Vector3d& x);
+
 // What the wheels' noise allows between them and vision over one delta: 3 sigma + 5 mm / 5 mrad.
 struct WheelTolerance {
   double translation, rotation;  // m, rad
@@ -104,7 +108,8 @@ struct SlipEvidence {
   // called dynamic), and the candidates counted alike (what could have been inliers).
   int fused_inliers = 0, vision_inliers = 0, candidates = 0;
   bool strained = false;      // the wheel edge beyond kChi2WheelOutlier at the fused pose
-  bool was_slipping = false;  // the previous frame was decided a slip
+  bool was_slipping = false;  // the last decision was a slip (the previous frame's; in ORB-SLAM3,
+                              // which solves a frame twice, the frame's first solve's)
   // Vision-alone inliers a slip needs to start, and to go on (at least what places a frame).
   int min_to_start = 0, min_to_go_on = 0;
 };
