@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <random>
@@ -375,6 +376,65 @@ TEST(WheelInputPose, AfterAStretchOnTheWheelsTheEdgeStartsAtTheLastVisualFrame) 
   ASSERT_TRUE(tied.optimisePose(b.problem, &s));
   const double tied_error = (truth(1.0).inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm();
   EXPECT_GT(tied_error, 2 * error);
+}
+
+// A slow skid: the robot stands while its wheels creep on, 8 mm a frame (0.24 m/s at 30 Hz), each
+// frame's claim within what their noise and a few pixels allow. Tracked frame by frame, as ORB-SLAM3
+// does (the previous frame's pose as the edge's start, the wheels' prediction as the guess), the
+// fused pose followed the creep (the stereo slip scenario at 15 s: 5 cm before any check ran).
+// Vision alone's own track over the last half second against the wheels' catches it.
+// Returns the worst error; *last: the last frame's.
+double creepError(double creep, bool slip_check, std::size_t* slips, double* last) {
+  const Eigen::Isometry3d T_b_c = tiltedCamera();
+  const rvwo::SE2 still(1.0, 2.0, 0.3);
+  auto claimed = [&](double t) { return still * rvwo::SE2(creep * std::max(0.0, t - 0.2), 0, 0); };
+  WheelInput w;
+  configureWheels(w, T_b_c, claimed, slip_check);
+  Eigen::Isometry3d T_cp_w = cameraPose(still, T_b_c);
+  double worst = 0;
+  for (int k = 0; k < 27; ++k) {  // 0.1 to 0.97 s
+    const double t = 0.1 + k / 30.0;
+    StereoFrame f(still, T_b_c, 200, 0.05, 100 + k);
+    f.problem.t = t;
+    f.problem.has_previous = k > 0;
+    f.problem.t_previous = t - 1.0 / 30;
+    f.problem.T_cp_w = T_cp_w;
+    f.problem.T_c_w = k > 0 ? w.predict(T_cp_w, t - 1.0 / 30, t) : T_cp_w;
+    PoseSolution s;
+    EXPECT_TRUE(w.optimisePose(f.problem, &s));
+    w.frameTracked(t, true, 200);
+    T_cp_w = s.T_c_w;
+    double off_plane = 1;
+    *last = (still.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm();
+    worst = std::max(worst, *last);
+  }
+  *slips = w.slipFrames();
+  return worst;
+}
+
+TEST(WheelInputPose, WheelsThatCreepLoseToVisionWithinAFewFrames) {
+  std::size_t slips = 0, none = 0, honest_slips = 0;
+  double last = 1, last_followed = 0, last_honest = 1;
+  const double caught = creepError(0.24, true, &slips, &last);
+  const double followed = creepError(0.24, false, &none, &last_followed);
+  const double honest = creepError(0.0, true, &honest_slips, &last_honest);
+  std::printf(
+      "creep: worst %.4f m, last %.4f m with the check (%zu slip frames); %.4f m, %.4f m without; "
+      "honest wheels %.4f m\n",
+      caught, last, slips, followed, last_followed, honest);
+  EXPECT_EQ(none, 0u);
+  // Without the check the pose follows the creep; with it, a few frames of it (until the creep
+  // is beyond the map's errors and the calibration), then vision alone brings it back.
+  EXPECT_GT(last_followed, 0.018);
+  EXPECT_LT(caught, 0.7 * followed);
+  EXPECT_LT(last, 0.006);
+  // The creep runs over the last 23 frames: most of them, and no other, are slips.
+  EXPECT_GE(slips, 18u);
+  EXPECT_LE(slips, 23u);
+  // Wheels that tell the truth never lose, over 27 frames of vision's noise (the error is the
+  // first frame's, placed by vision alone, carried on).
+  EXPECT_EQ(honest_slips, 0u);
+  EXPECT_LT(honest, 0.007);
 }
 
 TEST(WheelInputPose, MonocularAndInactiveLeaveItToOrbSlam3) {

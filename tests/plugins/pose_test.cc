@@ -257,8 +257,95 @@ TEST(WheelsAgainstVision, SlipStartsOnClearEvidenceAndGoesOnWhileTheWheelsStillL
   EXPECT_TRUE(slipWorthChecking(false, false, 141, 100));
   EXPECT_TRUE(slipWorthChecking(true, false, 100, 100));
   EXPECT_TRUE(slipWorthChecking(false, true, 100, 100));
+  // Creeping wheels (wheelsCreep over a stretch): a slip starts, or goes on, when vision alone
+  // explains about as much as the fused pose, however small this frame's own miss.
+  b = e;
+  b.vision_inliers = 100;
+  b.candidates = 110;
+  b.T_b0_b1_vision = SE2(0.097, 0.0, 0.049);  // this frame alone within the wheels' tolerance
+  EXPECT_FALSE(decideSlip(b));
+  b.creeping = true;
+  EXPECT_TRUE(decideSlip(b));
+  b.vision_inliers = 97;  // vision alone lost some: the creep may be the walkers' pull
+  EXPECT_FALSE(decideSlip(b));
+  b.vision_inliers = 100;
+  b.was_slipping = true;
+  b.min_to_start = 101;  // too few to start, enough to go on
+  EXPECT_TRUE(decideSlip(b));
+  b.creeping = false;
+  EXPECT_FALSE(decideSlip(b));
   e.wheels = nullptr;
   EXPECT_THROW(decideSlip(e), std::invalid_argument);
+}
+
+// Over a stretch: the wheels claim 6 cm ahead and 0.04 rad (sigma 1 mm / 1 mrad); vision alone's
+// poses at its ends, each with 2 mm / 2 mrad sigma; beyond both, 5 mm / 5 mrad and 3 % / 5 % of
+// the claim (the map's errors, the wheels' calibration).
+TEST(WheelsAgainstVision, CreepIsTheWheelsClaimBeyondBothNoisesOverAStretch) {
+  WheelDelta d;
+  d.dp << 0.06, 0.0;
+  d.dphi = 0.04;
+  d.covariance = Eigen::Vector3d(1e-6, 1e-6, 1e-6).asDiagonal();
+  const Eigen::Matrix3d sharp = Eigen::Vector3d(1 / 4e-6, 1 / 4e-6, 1 / 4e-6).asDiagonal();
+  for (const double theta : {0.4, M_PI - 0.005, -M_PI + 0.002}) {  // across +-pi too
+    const Eigen::Vector3d x0(1.0, -2.0, theta);
+    auto at = [&](const SE2& T) { return (SE2::fromVector(x0) * T).vector(); };
+    // Vision saw the robot stand: a creep.
+    EXPECT_TRUE(wheelsCreep(d, x0, sharp, x0, sharp)) << theta;
+    // Vision saw what the wheels claimed, within the noise: none.
+    EXPECT_FALSE(wheelsCreep(d, x0, sharp, at(SE2(0.055, 0.004, 0.036)), sharp)) << theta;
+    // A quarter of it along its arc: 4.5 cm short, beyond the gate (sigma about 6 mm).
+    EXPECT_TRUE(wheelsCreep(d, x0, sharp, at(SE2(0.015, 0.0, 0.01)), sharp)) << theta;
+    // 1.5 cm off: within what the map's errors and the calibration allow.
+    EXPECT_FALSE(wheelsCreep(d, x0, sharp, at(SE2(0.045, 0.0, 0.04)), sharp)) << theta;
+    // Vision went farther than the wheels: no slip does that (walkers pull vision anywhere).
+    EXPECT_FALSE(wheelsCreep(d, x0, sharp, at(SE2(0.14, 0.0, 0.04)), sharp)) << theta;
+    // A third of the claim, but 3 cm sideways, or turning against it: walkers, not the wheels.
+    EXPECT_FALSE(wheelsCreep(d, x0, sharp, at(SE2(0.02, 0.03, 0.013)), sharp)) << theta;
+    EXPECT_FALSE(wheelsCreep(d, x0, sharp, at(SE2(0.02, 0.0, -0.03)), sharp)) << theta;
+    // Half of the claim along its arc (the robot slowed): a creep.
+    EXPECT_TRUE(wheelsCreep(d, x0, sharp, at(SE2(0.03, 0.0, 0.02)), sharp)) << theta;
+    // A vision that cannot tell (3 cm, 30 mrad sigma at one end): none.
+    const Eigen::Matrix3d blurred = Eigen::Vector3d(1 / 9e-4, 1 / 9e-4, 1 / 9e-4).asDiagonal();
+    EXPECT_FALSE(wheelsCreep(d, x0, blurred, x0, sharp)) << theta;
+    // A pose vision did not pin down at all (no information): none, rather than NaN.
+    EXPECT_FALSE(wheelsCreep(d, x0, Eigen::Matrix3d::Zero(), x0, sharp)) << theta;
+  }
+}
+
+// PlanarPoseResult::information, inverted, is the scatter of vision alone's pose over the pixel
+// noise (Monte Carlo, 400 frames of 150 matches with the same landmarks).
+TEST(PlanarPose, InformationIsTheInverseOfThePoseScatter) {
+  const Eigen::Vector3d x_true(0.5, 1.0, -0.7);
+  Scene s(x_true, 150, 0.0, 21);
+  std::mt19937_64 rng(22);
+  std::normal_distribution<double> g(0, 1);
+  PlanarPoseOptions opt;
+  opt.huber = true;
+  const int trials = 400;
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero(), covariance = Eigen::Matrix3d::Zero();
+  for (int t = 0; t < trials; ++t) {
+    for (PoseObservation& o : s.obs) {
+      Eigen::Vector3d h;
+      ASSERT_TRUE(s.stereo.predict(x_true, o.P_w, &h));
+      o.z = h + o.sigma_px * Eigen::Vector3d(g(rng), g(rng), g(rng));
+    }
+    Eigen::Vector3d x = x_true + Eigen::Vector3d(0.02, -0.01, 0.01);
+    const PlanarPoseResult r = optimisePlanarPose(s.mono, &s.stereo, s.obs, WheelPrior{}, opt, &x);
+    Eigen::Vector3d e = x - x_true;
+    e.z() = wrapAngle(e.z());
+    scatter += e * e.transpose() / trials;
+    covariance += r.information.inverse() / trials;
+  }
+  // Each variance within 20 % (400 samples: about 7 % standard error); correlations alike.
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(scatter(i, i) / covariance(i, i), 1.0, 0.2) << "\n" << scatter << "\n" << covariance;
+    for (int j = 0; j < i; ++j) {
+      const double rho_s = scatter(i, j) / std::sqrt(scatter(i, i) * scatter(j, j));
+      const double rho_c = covariance(i, j) / std::sqrt(covariance(i, i) * covariance(j, j));
+      EXPECT_NEAR(rho_s, rho_c, 0.15) << i << j;
+    }
+  }
 }
 
 TEST(PlanarPose, StereoObservationWithoutStereoEdgeThrows) {
