@@ -18,7 +18,8 @@
 // Ablations: --mode wheel|vo|vw, --kernel huber|fixed:<alpha>|adaptive, --no-semantics.
 // In a build given ORB_SLAM3_ROOT (a patched ORB-SLAM3 v1.0, patches/orbslam3/), --backend orbslam3
 // replays the same rawlog through ORB-SLAM3 instead: --mode vw hands it the wheel readings, --mode vo
-// does not (upstream's behaviour), for side-by-side runs.
+// does not (upstream's behaviour), for side-by-side runs; with the wheels its keyframes go to the
+// segmenter (--segmenter), whose labels reach its tracking's adaptive kernel (patch 0005).
 // Bad records (odometry going backwards or NaN, an image of the wrong size or missing) are
 // skipped with a line on stderr; a truncated or corrupt rawlog stops the replay there: what was
 // estimated so far is written, and the exit status is 1.
@@ -284,10 +285,12 @@ extern "C" void orbslam3Aborted(int) {
 // --backend orbslam3: ORB-SLAM3 (patched) fed like the estimator, its report in the same terms.
 class OrbSlam3Backend {
  public:
-  // settings: the sequence's, whose Odometry.Noise*, Reliability.* and Tracking.SlipCheck keys go on
-  // to ORB-SLAM3.
+  // settings: the sequence's, whose Odometry.Noise*, Reliability.*, Semantics.* and Tracking.SlipCheck
+  // keys go on to ORB-SLAM3 (and Estimator.LabelDilation as Segmentation.LabelDilation). segmenter:
+  // the keyframes' (with the wheels; none: reliabilities from reprojection errors alone).
   OrbSlam3Backend(const rvwo::estimator::Rig& rig, const rvwo::estimator::EstimatorOptions& opt, bool wheels,
-                  const rvwo::Settings& settings, const std::string& vocabulary, const std::string& out)
+                  const rvwo::Settings& settings, const std::string& vocabulary, const std::string& out,
+                  const std::shared_ptr<rvwo::Segmenter>& segmenter)
       : T_b_c_(rig.T_b_c) {
     using Sensor = rvwo::orbslam3::RunnerOptions::Sensor;
     if (rig.rectification) throw std::invalid_argument("--backend orbslam3 takes pinhole cameras (not fisheye)");
@@ -322,11 +325,22 @@ class OrbSlam3Backend {
     w.sigma_rollpitch = std::sqrt(opt.out_of_plane.sigma_rollpitch(0, 0));
     if (const auto v = settings.number("Tracking.SlipCheck")) w.slip_check = *v != 0;
     std::vector<std::pair<std::string, std::string>> more;
-    for (const char* prefix : {"Odometry.Noise", "Reliability."}) {
+    for (const char* prefix : {"Odometry.Noise", "Reliability.", "Semantics."}) {
       for (const std::string& key : settings.keysWithPrefix(prefix)) {
-        if (const auto v = settings.number(key)) more.emplace_back(key, std::to_string(*v));
+        if (key == "Semantics.LabelSet") {  // the texts among them
+          if (const auto t = settings.text(key)) more.emplace_back(key, "\"" + *t + "\"");
+        } else if (key == "Semantics.PriorsFile") {  // relative to the sequence's settings
+          if (const auto t = settings.text(key)) {
+            fs::path p(*t);
+            if (p.is_relative()) p = fs::absolute(fs::path(settings.path()).parent_path() / p);
+            more.emplace_back(key, "\"" + p.string() + "\"");
+          }
+        } else if (const auto v = settings.number(key)) {
+          more.emplace_back(key, std::to_string(*v));
+        }
       }
     }
+    more.emplace_back("Segmentation.LabelDilation", std::to_string(opt.label_dilation_px));
     rvwo::orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels ? &w : nullptr, more);
     std::printf("rvwo-replay: ORB-SLAM3 settings %s, its console output in %s\n", o.settings.c_str(), o.log.c_str());
     std::snprintf(g_abort_message, sizeof g_abort_message,
@@ -334,6 +348,8 @@ class OrbSlam3Backend {
                   o.log.c_str());
     std::signal(SIGABRT, orbslam3Aborted);
     runner_ = std::make_unique<rvwo::orbslam3::Runner>(o);
+    // Keyframes to the segmenter, labels into tracking's reliabilities (patch 0005): with the wheels.
+    if (wheels && segmenter) runner_->setSegmenter(segmenter);
     scratch_ = fs::path(out).replace_extension(".orbslam3-").string();
   }
   // Frames wait for the wheel reading that reaches their time (in a rawlog it comes after them),
@@ -373,6 +389,7 @@ class OrbSlam3Backend {
     rep->wheel_only_frames = result.wheel_only_frames;
     rep->wheel_only_intervals = result.wheel_only_intervals;
     rep->slip_frames = result.slip_frames;
+    rep->segmented_keyframes = result.segmented_keyframes;
     rep->timings = {{"TrackFrame", rvwo::estimator::TimingStats::of(track_ms_)}};
     return out;
   }
@@ -448,7 +465,8 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<std::string> backend_arg(
         "", "backend",
         "rvwo (default): RVWO's estimator; orbslam3: the patched ORB-SLAM3 this build was given (--mode vw: with "
-        "the wheels, vo: without, as upstream; --kernel and semantics do not apply to it yet)",
+        "the wheels, vo: without, as upstream; --kernel adaptive|huber and, with the wheels, the keyframes' labels "
+        "(--segmenter, --no-semantics) apply to its tracking)",
         false, "rvwo", "rvwo|orbslam3", cmd);
     TCLAP::ValueArg<std::string> vocabulary_arg(
         "", "vocabulary", "ORB-SLAM3's DBoW2 vocabulary, text (--backend orbslam3; rvwo-orbslam3-vocab makes one)",
@@ -507,7 +525,6 @@ int main(int argc, char** argv) {
         throw std::invalid_argument("--backend orbslam3 needs --vocabulary (rvwo-orbslam3-vocab makes one)");
       if (opt.kernel == rvwo::estimator::KernelChoice::kFixed)
         throw std::invalid_argument("--backend orbslam3 takes --kernel adaptive or huber");
-      opt.semantics = false;
     } else if (backend_arg.getValue() != "rvwo") {
       throw std::invalid_argument("--backend must be rvwo or orbslam3, not '" + backend_arg.getValue() + "'");
     }
@@ -544,7 +561,7 @@ int main(int argc, char** argv) {
     std::unique_ptr<OrbSlam3Backend> orbslam3;
     if (use_orbslam3)
       orbslam3 = std::make_unique<OrbSlam3Backend>(rig, opt, opt.mode == rvwo::estimator::Mode::kVw, settings,
-                                                   vocabulary_arg.getValue(), out_arg.getValue());
+                                                   vocabulary_arg.getValue(), out_arg.getValue(), segmenter);
 #endif
     if (!use_orbslam3) estimator = std::make_unique<rvwo::estimator::Estimator>(rig, opt, segmenter);
     Prefetcher reader(rawlog_arg.getValue(), camera_label, odometry_label, rawlog_labels ? labels_label : "",
@@ -690,8 +707,10 @@ int main(int argc, char** argv) {
       std::printf(
           "rvwo-replay: %s, ORB-SLAM3 (patched), %s\n", rawlog_arg.getValue().c_str(),
           opt.mode == rvwo::estimator::Mode::kVw ? "with the wheels" : "without the wheels (upstream behaviour)");
-      std::printf("  frames %zu over %.1f s, keyframes %zu, poses kept %zu\n", rep.frames, seq_s, rep.keyframes,
-                  est.size());
+      std::printf("  frames %zu over %.1f s, keyframes %zu, poses kept %zu, semantics %s, segmented keyframes %zu\n",
+                  rep.frames, seq_s, rep.keyframes, est.size(),
+                  opt.mode == rvwo::estimator::Mode::kVw ? seg_name.c_str() : "none (without the wheels)",
+                  rep.segmented_keyframes);
     } else {
       std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog_arg.getValue().c_str(), mode.c_str(),
                   kernel.c_str(), seg_name.c_str());

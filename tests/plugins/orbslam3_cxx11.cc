@@ -1,5 +1,7 @@
 // Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
-// Built as C++11 (tests/plugins/CMakeLists.txt): the header ORB-SLAM3's Tracking.h includes.
+// Built as C++11 (tests/plugins/CMakeLists.txt): the headers ORB-SLAM3's Tracking.h and the patched
+// Tracking.cc include (labels.h: its template, parsed).
+#include "rvwo/orbslam3/labels.h"
 #include "rvwo/orbslam3/wheel_input.h"
 
 #if __cplusplus != 201103L

@@ -8,11 +8,17 @@
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <limits>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "../common/temp.h"
 #include "rvwo/edges/se2.h"
+#include "rvwo/kernels/semantic_priors.h"
 #include "rvwo/orbslam3/wheel_input.h"
+#include "rvwo/semantics/segmenter.h"
 
 namespace {
 
@@ -435,6 +441,136 @@ TEST(WheelInputPose, WheelsThatCreepLoseToVisionWithinAFewFrames) {
   // first frame's, placed by vision alone, carried on).
   EXPECT_EQ(honest_slips, 0u);
   EXPECT_LT(honest, 0.007);
+}
+
+// ---- labels: keyframes to a segmenter, labels to the map points' reliabilities (eqs. 4, 5)
+
+// Labels a person (voc21's 15) on the left half of every image, background on the right.
+class HalfPerson final : public rvwo::Segmenter {
+ public:
+  rvwo::Segmentation segment(const cv::Mat& image, const rvwo::FrameInfo&) override {
+    rvwo::Segmentation s;
+    s.labels = cv::Mat::zeros(image.rows, image.cols, CV_32S);
+    s.labels(cv::Rect(0, 0, image.cols / 2, image.rows)).setTo(person_);
+    ++calls;
+    return s;
+  }
+  const std::vector<std::string>& classNames() const override { return names_; }
+  int calls = 0;
+
+ private:
+  std::vector<std::string> names_ = rvwo::SemanticPriors::builtin("voc21").classes();
+  int person_ = rvwo::SemanticPriors::builtin("voc21").labelOf("person");
+};
+
+TEST(WheelInputLabels, KeyframeLabelsRejectAWalkersPointsAndKeepTheRest) {
+  WheelInput w;
+  WheelInputParams p;
+  p.T_b_c = tiltedCamera();
+  p.label_dilation_px = 0;
+  w.configure(p);
+  EXPECT_FALSE(w.segments());
+  const cv::Mat image(480, 640, CV_8U, cv::Scalar(128));
+  // Without a segmenter a keyframe is ignored: every point keeps a fresh one's alpha.
+  w.keyFrame(0.0, image, {{100.f, 200.f, 1ul}});
+  EXPECT_EQ(w.segmentedKeyFrames(), 0u);
+  EXPECT_DOUBLE_EQ(w.alpha(1), 1.0);
+  auto segmenter = std::make_shared<HalfPerson>();
+  w.setSegmenter(segmenter);
+  ASSERT_TRUE(w.segments());
+  // Point 1 on the person (left half), point 2 on the background, seen by three keyframes.
+  for (int k = 0; k < 3; ++k) {
+    w.keyFrame(0.1 * k, image, {{100.f + k, 200.f, 1ul}, {500.f - k, 200.f, 2ul}});
+    w.waitForLabels(5.0);
+  }
+  EXPECT_EQ(w.segmentedKeyFrames(), 3u);
+  EXPECT_EQ(segmenter->calls, 3);
+  EXPECT_EQ(w.alpha(1), -std::numeric_limits<double>::infinity());  // rejected before it moved
+  EXPECT_GT(w.alpha(2), 0.9);                                       // background: trusted
+  EXPECT_DOUBLE_EQ(w.alpha(3), 1.0);                                // never labelled: fresh
+  // A frame whose matches include the walker's point: it places nothing (an outlier whatever its
+  // error), the background does.
+  const Eigen::Isometry3d& T_b_c = p.T_b_c;
+  StereoFrame f(rvwo::SE2(0.3, 0.1, 0.2), T_b_c, 100, 0.0, 31);
+  f.problem.t = 0.5;
+  f.problem.T_c_w = cameraPose(rvwo::SE2(0.3, 0.1, 0.2), T_b_c);
+  for (PoseMatch& m : f.problem.matches) m.id = m.id == 1 ? 1 : 100 + m.id;
+  PoseSolution s;
+  ASSERT_TRUE(w.optimisePose(f.problem, &s));
+  EXPECT_TRUE(s.outlier[1]);
+  int kept = 0;
+  for (std::size_t k = 0; k < s.outlier.size(); ++k) kept += k != 1 && !s.outlier[k];
+  EXPECT_GT(kept, 85);
+  // Settings: a bad dilation, a network that cannot be read: one error naming the key (and file).
+  const std::string path = rvwo::test::scratch("labels.yaml").string();
+  auto configureError = [&](const std::string& line) {
+    std::ofstream(path) << "%YAML:1.0\nCamera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+                           "   data: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n"
+                        << line << "\n";
+    try {
+      WheelInput bad;
+      bad.configure(path);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(configureError("Segmentation.LabelDilation: 2.5").find("Segmentation.LabelDilation"), std::string::npos);
+  const std::string model = configureError("Segmentation.Model: \"no_such_model.onnx\"");
+  EXPECT_NE(model.find("Segmentation.Model"), std::string::npos) << model;
+  EXPECT_NE(model.find("no_such_model.onnx"), std::string::npos) << model;
+  std::filesystem::remove(path);
+}
+
+// The network named in the settings (Segmentation.Model) on a real TUM frame: keypoints on the
+// walking person lose their weight, those on the room keep it.
+TEST(WheelInputLabels, NetworkFromTheSettingsLabelsARealWalker) {
+  const std::string shared = RVWO_SHARED_DIR;
+  const std::string model = shared + "/models/deeplabv3_mnv2_voc21.onnx";
+  if (!std::filesystem::exists(model)) GTEST_SKIP() << "../shared is absent: no real model to run";
+  const std::string path = rvwo::test::scratch("network.yaml").string();
+  std::ofstream(path) << "%YAML:1.0\nCamera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+                         "   data: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n"
+                         "Segmentation.Model: \""
+                      << model << "\"\n";
+  WheelInput w;
+  w.configure(path);
+  std::filesystem::remove(path);
+  ASSERT_TRUE(w.segments());
+  const auto rgb_dir = std::filesystem::path(shared) / "data" / "tum_fr3_walking_xyz" / "rgb";
+  const auto frame = *std::filesystem::directory_iterator(rgb_dir);
+  const cv::Mat rgb = cv::imread(frame.path().string(), cv::IMREAD_COLOR);
+  const cv::Mat mask =
+      cv::imread((rgb_dir.parent_path() / "mask" / frame.path().filename()).string(), cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(rgb.empty());
+  ASSERT_FALSE(mask.empty());
+  // Ten keypoints well inside the person (mask 0, far from its border) and ten well outside.
+  cv::Mat person = mask == 0, inside, outside;
+  cv::erode(person, inside, cv::Mat(), cv::Point(-1, -1), 15);
+  cv::erode(~person, outside, cv::Mat(), cv::Point(-1, -1), 30);
+  std::vector<rvwo::orbslam3::KeyFrameFeature> features;
+  std::vector<cv::Point> in, out;
+  cv::findNonZero(inside, in);
+  cv::findNonZero(outside, out);
+  ASSERT_GE(in.size(), 10u);
+  ASSERT_GE(out.size(), 10u);
+  for (int k = 0; k < 10; ++k) {
+    const cv::Point a = in[k * in.size() / 10], b = out[k * out.size() / 10];
+    features.push_back({float(a.x), float(a.y), 1000ul + k});
+    features.push_back({float(b.x), float(b.y), 2000ul + k});
+  }
+  for (int k = 0; k < 3; ++k) {
+    w.keyFrame(0.1 * k, rgb, features);
+    w.waitForLabels(30.0);
+  }
+  EXPECT_EQ(w.segmentedKeyFrames(), 3u);
+  int rejected = 0, trusted = 0;
+  for (int k = 0; k < 10; ++k) {
+    rejected += w.alpha(1000ul + k) == -std::numeric_limits<double>::infinity();
+    trusted += w.alpha(2000ul + k) > 0.9;
+  }
+  EXPECT_GE(rejected, 9);
+  EXPECT_GE(trusted, 9);
 }
 
 TEST(WheelInputPose, MonocularAndInactiveLeaveItToOrbSlam3) {

@@ -161,6 +161,11 @@ Runner::~Runner() {
 
 void Runner::addWheels(const WheelReading& r) { impl_->wheels.push_back(r); }
 
+void Runner::setSegmenter(const std::shared_ptr<Segmenter>& segmenter) {
+  WheelInput& w = impl_->system->Wheels();  // patch 0002
+  if (w.active()) w.setSegmenter(segmenter);
+}
+
 bool Runner::track(double t, const cv::Mat& image, const cv::Mat& right_or_depth) {
   ORB_SLAM3::System& s = *impl_->system;
   // The wheel overloads (patch 0002), with or without readings: without, ORB-SLAM3 tracks as
@@ -192,8 +197,9 @@ Runner::Result Runner::finish(const std::string& scratch) {
   s.SaveKeyFrameTrajectoryEuRoC(keyframes);
   r.T_c0_c = readEuroc(frames);
   r.keyframes = readEuroc(keyframes).size();
-  const WheelInput& w = s.Wheels();  // patch 0002
+  WheelInput& w = s.Wheels();  // patch 0002
   r.wheel_only_frames = w.wheelOnlyFrames();
+  r.segmented_keyframes = w.segmentedKeyFrames();
   r.wheel_only_intervals = w.wheelOnlyIntervals();
   r.slip_frames = w.slipFrames();
   std::remove(frames.c_str());

@@ -2,15 +2,22 @@
 #include "rvwo/orbslam3/wheel_input.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <deque>
+#include <filesystem>
+#include <map>
 #include <optional>
 #include <stdexcept>
 
 #include "rvwo/edges/camera.h"
 #include "rvwo/edges/wheel_preintegration.h"
 #include "rvwo/kernels/reliability.h"
+#include "rvwo/kernels/semantic_priors.h"
 #include "rvwo/pose/planar_pose.h"
+#include "rvwo/semantics/async_segmenter.h"
+#include "rvwo/semantics/label_lookup.h"
+#include "rvwo/semantics/onnx_segmenter.h"
 #include "rvwo/settings/settings.h"
 
 namespace rvwo::orbslam3 {
@@ -23,8 +30,8 @@ SE2 planar(const Eigen::Isometry3d& T) {
 }  // namespace
 
 struct WheelInput::Impl {
-  Impl(const WheelInputParams& p, const WheelNoise& noise, const ReliabilityParams& r)
-      : params(p), odometry(noise, planar(p.T_b_o)), reliability(r) {
+  Impl(const WheelInputParams& p, const WheelNoise& noise, const ReliabilityParams& r, SemanticPriors sp)
+      : params(p), odometry(noise, planar(p.T_b_o)), reliability(r), priors(std::move(sp)) {
     drive.radius_left = p.radius_left;
     drive.radius_right = p.radius_right;
     drive.track = p.track;
@@ -76,6 +83,35 @@ struct WheelInput::Impl {
   };
   std::deque<Seen> vision_track;
 
+  // ---- labels
+  SemanticPriors priors;
+  std::unique_ptr<AsyncSegmenter> segmenter;
+  std::uint64_t keyframes_sent = 0;
+  std::map<std::uint64_t, std::vector<KeyFrameFeature>> waiting;  // keyframe -> its features
+  std::size_t segmented = 0;
+
+  // Labels that have come: semantic observations of the map points the keyframes' keypoints see
+  // (eqs. 4, 5). Keyframes dropped or failed are done with (their points keep what they had).
+  void applyLabels(std::chrono::milliseconds wait) {
+    for (auto it = waiting.begin(); it != waiting.end();) {
+      std::optional<Segmentation> seg =
+          wait.count() > 0 ? segmenter->waitFor(it->first, wait) : segmenter->take(it->first);
+      if (!seg && segmenter->pending(it->first)) {
+        ++it;
+        continue;
+      }
+      if (seg) {
+        ++segmented;
+        const LabelLookup lookup(*seg, priors.dynamicLabels(), params.label_dilation_px);
+        for (const KeyFrameFeature& f : it->second) {
+          const int label = lookup.labelAt(cv::Point2f(f.u, f.v));
+          if (label >= 0) reliability.observe(f.id, priors.prior(label), std::nullopt);
+        }
+      }
+      it = waiting.erase(it);
+    }
+  }
+
   void makeEdges(const PoseProblem& p) {
     if (camera && camera->fx() == p.fx && camera->fy() == p.fy && camera->cx() == p.cx && camera->cy() == p.cy &&
         stereo_bf == p.bf)
@@ -106,7 +142,7 @@ WheelInput::WheelInput() = default;
 WheelInput::~WheelInput() = default;
 
 void WheelInput::configure(const WheelInputParams& p) {
-  impl_ = std::make_unique<Impl>(p, WheelNoise(), ReliabilityParams());
+  impl_ = std::make_unique<Impl>(p, WheelNoise(), ReliabilityParams(), SemanticPriors::builtin("voc21"));
 }
 
 void WheelInput::configure(const std::string& settings_path) {
@@ -133,13 +169,31 @@ void WheelInput::configure(const std::string& settings_path) {
   p.sigma_z = s.number("Tracking.SigmaZ").value_or(p.sigma_z);
   p.sigma_rollpitch = s.number("Tracking.SigmaRollPitch").value_or(p.sigma_rollpitch);
   p.slip_check = s.number("Tracking.SlipCheck").value_or(1.0) != 0.0;
+  const double dilation = s.number("Segmentation.LabelDilation").value_or(p.label_dilation_px);
+  if (!(dilation >= 0 && dilation <= 100 && dilation == std::floor(dilation)))
+    throw std::invalid_argument(settings_path +
+                                ": Segmentation.LabelDilation must be a whole number of pixels, 0 to 100");
+  p.label_dilation_px = static_cast<int>(dilation);
   if (!(p.barron_scale > 0) || !(p.sigma_z >= 0) || !(p.sigma_rollpitch >= 0))
     throw std::invalid_argument(settings_path +
                                 ": Tracking.BarronScale must be > 0, Tracking.SigmaZ and .SigmaRollPitch >= 0");
   try {
-    impl_ = std::make_unique<Impl>(p, readWheelNoise(s), readReliability(s));
+    impl_ = std::make_unique<Impl>(p, readWheelNoise(s), readReliability(s), readSemanticPriors(s));
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(settings_path + ": " + e.what());
+  }
+  // A network for the keyframes' labels, named in the settings (relative to the settings file).
+  if (const auto model = s.text("Segmentation.Model")) {
+    OnnxSegmenterOptions o;
+    o.model_path = std::filesystem::absolute(std::filesystem::path(settings_path).parent_path() / *model).string();
+    if (std::filesystem::path(*model).is_absolute()) o.model_path = *model;
+    o.class_names = impl_->priors.classes();
+    try {
+      setSegmenter(std::make_shared<OnnxSegmenter>(o));
+    } catch (const std::exception& e) {
+      impl_.reset();
+      throw std::invalid_argument(settings_path + ": Segmentation.Model " + o.model_path + ": " + e.what());
+    }
   }
 }
 
@@ -221,6 +275,7 @@ bool WheelInput::optimisesPoses() const { return impl_ && impl_->params.planar &
 bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   if (!optimisesPoses() || pb.matches.size() < 3) return false;
   Impl& m = *impl_;
+  if (m.segmenter) m.applyLabels(std::chrono::milliseconds(0));
   m.makeEdges(pb);
   const std::size_t n = pb.matches.size();
   std::vector<PoseObservation> obs(n);
@@ -312,5 +367,32 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
 }
 
 std::size_t WheelInput::slipFrames() const { return impl_ ? impl_->slip_frames : 0; }
+
+void WheelInput::setSegmenter(const std::shared_ptr<Segmenter>& segmenter) {
+  if (!impl_) throw std::logic_error("WheelInput::setSegmenter: not configured (no RVWO keys in the settings)");
+  impl_->waiting.clear();
+  // Two waiting at most (latest wins): a segmenter slower than keyframes skips some, never lags.
+  impl_->segmenter = segmenter ? std::make_unique<AsyncSegmenter>(segmenter, 2) : nullptr;
+}
+
+bool WheelInput::segments() const { return impl_ && impl_->segmenter; }
+
+void WheelInput::keyFrame(double t, const cv::Mat& image, const std::vector<KeyFrameFeature>& features) {
+  if (!segments()) return;
+  Impl& m = *impl_;
+  const std::uint64_t id = m.keyframes_sent++;
+  // A copy: ORB-SLAM3's image may share the caller's buffer, which the next frame may overwrite.
+  if (m.segmenter->submit(image.clone(), FrameInfo{id, t})) m.waiting.emplace(id, features);
+  m.applyLabels(std::chrono::milliseconds(0));
+}
+
+void WheelInput::waitForLabels(double timeout_s) {
+  if (!segments()) return;
+  impl_->applyLabels(std::chrono::milliseconds(static_cast<long>(std::max(0.0, timeout_s) * 1000) + 1));
+}
+
+std::size_t WheelInput::segmentedKeyFrames() const { return impl_ ? impl_->segmented : 0; }
+
+double WheelInput::alpha(unsigned long id) const { return impl_ ? impl_->reliability.alpha(id) : 1.0; }
 
 }  // namespace rvwo::orbslam3

@@ -65,6 +65,8 @@ class Runner {
 
   // A wheel reading, handed to ORB-SLAM3 with the next frame.
   void addWheels(const WheelReading& reading);
+  // The segmenter ORB-SLAM3's keyframes go to (patch 0005), when the wheels are configured.
+  void setSegmenter(const std::shared_ptr<Segmenter>& segmenter);
   // One frame (grey 8-bit; right: the right image for stereo, depth in metres, CV_32F, for
   // RGB-D). Returns whether ORB-SLAM3 tracks after it (false: lost, not initialised).
   bool track(double t, const cv::Mat& image, const cv::Mat& right_or_depth);
@@ -78,6 +80,7 @@ class Runner {
     std::size_t wheel_only_frames = 0;                            // frames the wheels placed
     std::vector<std::pair<double, double>> wheel_only_intervals;  // [first, last] frame time of each stretch
     std::size_t slip_frames = 0;                                  // frames where vision overruled the wheels
+    std::size_t segmented_keyframes = 0;                          // keyframes whose labels came
   };
   Result finish(const std::string& scratch);
 

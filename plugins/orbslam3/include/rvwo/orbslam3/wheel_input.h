@@ -15,7 +15,10 @@
 //   - optimises a stereo or RGB-D frame's pose on SE(2) (optimisePose, in place of ORB-SLAM3's
 //     6-DoF PoseOptimization): SE(2)-XYZ edges with out-of-plane noise (eqs. 8 to 10), each map
 //     point under its adaptive Barron kernel (eqs. 6, 7), and the wheel edge from the previous
-//     frame (eq. 14), unless the wheels slipped.
+//     frame (eq. 14), unless the wheels slipped;
+//   - sends keyframes to a segmenter in a thread of its own, and their labels to the reliability
+//     of the map points their keypoints see (eqs. 4, 5): a walker's points lose their weight in
+//     tracking (alpha towards -inf) before they have moved.
 //
 // This header is included by ORB-SLAM3's Tracking.h, which upstream compiles as C++11: it uses
 // nothing newer and hides the C++17 core behind a pointer.
@@ -27,7 +30,13 @@
 #include <utility>
 #include <vector>
 
+namespace cv {
+class Mat;
+}
+
 namespace rvwo {
+class Segmenter;
+
 namespace orbslam3 {
 
 // One odometry reading as the robot's driver gives it, stamped on the camera's clock (s).
@@ -60,6 +69,10 @@ struct WheelInputParams {
   double sigma_z = 0.01;          // m: the body's height off the plane [Tracking.SigmaZ]
   double sigma_rollpitch = 0.01;  // rad: its roll and pitch [Tracking.SigmaRollPitch]
   bool slip_check = true;         // vision alone may overrule wheels that slip [Tracking.SlipCheck: 1 | 0]
+  int label_dilation_px = 8;      // dynamic classes' masks widened by this much [Segmentation.LabelDilation]
+  // Segmentation.Model: an ONNX network for the keyframes' labels (a path relative to the settings
+  // file; its classes: the label set), else none unless setSegmenter gives one.
+  // The label set and its priors: Semantics.LabelSet, Semantics.Prior.<class> (voc21 by default).
   // Noise densities of the odometry [Odometry.Noise*] and the reliability model [Reliability.*]
   // are read from the settings into the plugin's own (C++17) types.
 };
@@ -84,6 +97,12 @@ struct PoseProblem {
   double bf;              // stereo baseline times fx [px m]
   double scale_factor;    // between pyramid levels (ORB-SLAM3's 1.2)
   std::vector<PoseMatch> matches;
+};
+
+// A keyframe's keypoint (in the image as given, where its labels are) and the map point it sees.
+struct KeyFrameFeature {
+  float u, v;
+  unsigned long id;
 };
 
 struct PoseSolution {
@@ -131,6 +150,21 @@ class WheelInput {
   bool optimisePose(const PoseProblem& problem, PoseSolution* solution);
   // Frames tracked (frameTracked) whose last optimisePose had vision alone overrule the wheels.
   std::size_t slipFrames() const;
+
+  // ---- labels (eqs. 4, 5)
+  // The segmenter keyframes go to, run in a thread of its own (its labels in the label set of the
+  // settings); none: no keyframe is segmented, reliabilities learn from reprojection errors alone.
+  void setSegmenter(const std::shared_ptr<Segmenter>& segmenter);
+  bool segments() const;
+  // A keyframe: its image (8-bit grey or BGR; copied) and its keypoints that see map points.
+  // Never waits: labels that have come are applied here and before each optimisePose; when
+  // keyframes come faster than the segmenter, the oldest waiting one is dropped.
+  void keyFrame(double t, const cv::Mat& image, const std::vector<KeyFrameFeature>& features);
+  // Waits up to timeout_s for the labels of the keyframes sent, and applies them (shutdown, tests).
+  void waitForLabels(double timeout_s);
+  std::size_t segmentedKeyFrames() const;
+  // A map point's Barron shape as tracking weighs it (eq. 7): 1 for a fresh one, -inf rejected.
+  double alpha(unsigned long id) const;
 
  private:
   struct Impl;
