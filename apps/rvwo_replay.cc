@@ -330,11 +330,7 @@ class OrbSlam3Backend {
         if (key == "Semantics.LabelSet") {  // the texts among them
           if (const auto t = settings.text(key)) more.emplace_back(key, "\"" + *t + "\"");
         } else if (key == "Semantics.PriorsFile") {  // relative to the sequence's settings
-          if (const auto t = settings.text(key)) {
-            fs::path p(*t);
-            if (p.is_relative()) p = fs::absolute(fs::path(settings.path()).parent_path() / p);
-            more.emplace_back(key, "\"" + p.string() + "\"");
-          }
+          if (const auto f = settings.file(key)) more.emplace_back(key, "\"" + *f + "\"");
         } else if (const auto v = settings.number(key)) {
           more.emplace_back(key, std::to_string(*v));
         }

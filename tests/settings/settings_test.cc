@@ -67,6 +67,12 @@ TEST(Settings, SemanticPriorsFromYamlAndAUserFile) {
   EXPECT_EQ(p.prior(p.labelOf("chair")), 0.7);  // from the file, relative to the settings
   EXPECT_EQ(p.prior(p.labelOf("door")), 0.2);
   EXPECT_EQ(p.prior(p.labelOf("person")), 0.95);
+  // A file named in the settings: relative to their folder, made absolute; an absolute one as given.
+  const Settings files =
+      Settings::fromString("%YAML:1.0\nA: \"m/net.onnx\"\nB: \"/opt/net.onnx\"\n", (dir / "f.yaml").string());
+  EXPECT_EQ(*files.file("A"), fs::absolute(dir / "m" / "net.onnx").string());
+  EXPECT_EQ(*files.file("B"), "/opt/net.onnx");
+  EXPECT_FALSE(files.file("C"));
   EXPECT_EQ(readSemanticPriors(Settings::fromString("%YAML:1.0\nX: 1\n")).name(), "voc21");
   expectError([] { readSemanticPriors(Settings::fromString("%YAML:1.0\nSemantics.Prior.unicorn: 0.5\n", "u.yaml")); },
               "u.yaml: Semantics.Prior.unicorn: class 'unicorn' is not in label set 'voc21'");

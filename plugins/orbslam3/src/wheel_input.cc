@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <deque>
-#include <filesystem>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -92,10 +91,13 @@ struct WheelInput::Impl {
 
   // Labels that have come: semantic observations of the map points the keyframes' keypoints see
   // (eqs. 4, 5). Keyframes dropped or failed are done with (their points keep what they had).
-  void applyLabels(std::chrono::milliseconds wait) {
+  // deadline: how long it may wait for those still to come (none: it takes what is there).
+  void applyLabels(std::optional<std::chrono::steady_clock::time_point> deadline = std::nullopt) {
     for (auto it = waiting.begin(); it != waiting.end();) {
       std::optional<Segmentation> seg =
-          wait.count() > 0 ? segmenter->waitFor(it->first, wait) : segmenter->take(it->first);
+          deadline ? segmenter->waitFor(it->first, std::chrono::duration_cast<std::chrono::milliseconds>(
+                                                       *deadline - std::chrono::steady_clock::now()))
+                   : segmenter->take(it->first);
       if (!seg && segmenter->pending(it->first)) {
         ++it;
         continue;
@@ -183,10 +185,9 @@ void WheelInput::configure(const std::string& settings_path) {
     throw std::invalid_argument(settings_path + ": " + e.what());
   }
   // A network for the keyframes' labels, named in the settings (relative to the settings file).
-  if (const auto model = s.text("Segmentation.Model")) {
+  if (const auto model = s.file("Segmentation.Model")) {
     OnnxSegmenterOptions o;
-    o.model_path = std::filesystem::absolute(std::filesystem::path(settings_path).parent_path() / *model).string();
-    if (std::filesystem::path(*model).is_absolute()) o.model_path = *model;
+    o.model_path = *model;
     o.class_names = impl_->priors.classes();
     try {
       setSegmenter(std::make_shared<OnnxSegmenter>(o));
@@ -275,7 +276,7 @@ bool WheelInput::optimisesPoses() const { return impl_ && impl_->params.planar &
 bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   if (!optimisesPoses() || pb.matches.size() < 3) return false;
   Impl& m = *impl_;
-  if (m.segmenter) m.applyLabels(std::chrono::milliseconds(0));
+  if (m.segmenter) m.applyLabels();
   m.makeEdges(pb);
   const std::size_t n = pb.matches.size();
   std::vector<PoseObservation> obs(n);
@@ -383,12 +384,13 @@ void WheelInput::keyFrame(double t, const cv::Mat& image, const std::vector<KeyF
   const std::uint64_t id = m.keyframes_sent++;
   // A copy: ORB-SLAM3's image may share the caller's buffer, which the next frame may overwrite.
   if (m.segmenter->submit(image.clone(), FrameInfo{id, t})) m.waiting.emplace(id, features);
-  m.applyLabels(std::chrono::milliseconds(0));
+  m.applyLabels();
 }
 
 void WheelInput::waitForLabels(double timeout_s) {
   if (!segments()) return;
-  impl_->applyLabels(std::chrono::milliseconds(static_cast<long>(std::max(0.0, timeout_s) * 1000) + 1));
+  impl_->applyLabels(std::chrono::steady_clock::now() +
+                     std::chrono::milliseconds(static_cast<long>(std::max(0.0, timeout_s) * 1000) + 1));
 }
 
 std::size_t WheelInput::segmentedKeyFrames() const { return impl_ ? impl_->segmented : 0; }

@@ -60,6 +60,12 @@ std::optional<std::string> Settings::text(const std::string& key) const {
   return static_cast<std::string>(n);
 }
 
+std::optional<std::string> Settings::file(const std::string& key) const {
+  const auto t = text(key);
+  if (!t) return std::nullopt;
+  return std::filesystem::absolute(std::filesystem::path(path_).parent_path() / *t).string();  // / keeps an absolute *t
+}
+
 double Settings::requireNumber(const std::string& key) const {
   const auto v = number(key);
   if (!v) throw std::invalid_argument(path_ + ": missing key " + key);
@@ -164,9 +170,8 @@ SemanticPriors readSemanticPriors(const Settings& s) {
       throw std::invalid_argument(s.path() + ": Semantics.LabelSet: " + e.what());
     }
   }();
-  if (const auto file = s.text("Semantics.PriorsFile")) {
-    std::filesystem::path p(*file);
-    if (p.is_relative()) p = std::filesystem::path(s.path()).parent_path() / p;
+  if (const auto file = s.file("Semantics.PriorsFile")) {
+    const std::filesystem::path p(*file);
     std::ifstream in(p);
     if (!in) throw std::invalid_argument(s.path() + ": Semantics.PriorsFile '" + p.string() + "' cannot be read");
     priors.overrideFrom(in, p.string());

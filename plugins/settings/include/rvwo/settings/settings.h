@@ -39,6 +39,9 @@ class Settings {
   // Absent: std::nullopt. Present but not a number (or a string): std::invalid_argument naming it.
   std::optional<double> number(const std::string& key) const;
   std::optional<std::string> text(const std::string& key) const;
+  // A string naming a file: relative to this settings file's folder unless absolute; made absolute
+  // (so that it can be handed on to another program or settings file).
+  std::optional<std::string> file(const std::string& key) const;
   // Present and a number, or std::invalid_argument "<path>: missing key <key>".
   double requireNumber(const std::string& key) const;
   // A rows x cols !!opencv-matrix (e.g. Camera.T_b_c, 4x4), row-major; absent: std::nullopt;
