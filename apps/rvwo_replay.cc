@@ -285,9 +285,10 @@ extern "C" void orbslam3Aborted(int) {
 // --backend orbslam3: ORB-SLAM3 (patched) fed like the estimator, its report in the same terms.
 class OrbSlam3Backend {
  public:
-  // settings: the sequence's, whose Odometry.Noise*, Reliability.*, Semantics.* and Tracking.SlipCheck
-  // keys go on to ORB-SLAM3 (and Estimator.LabelDilation as Segmentation.LabelDilation). segmenter:
-  // the keyframes' (with the wheels; none: reliabilities from reprojection errors alone).
+  // settings: the sequence's, whose Odometry.Noise*, Odometry.Calibrate, Reliability.*, Semantics.*,
+  // Tracking.SlipCheck and LocalMapping.* keys go on to ORB-SLAM3 (and Estimator.LabelDilation as
+  // Segmentation.LabelDilation). segmenter: the keyframes' (with the wheels; none: reliabilities from reprojection
+  // errors alone).
   OrbSlam3Backend(const rvwo::estimator::Rig& rig, const rvwo::estimator::EstimatorOptions& opt, bool wheels,
                   const rvwo::Settings& settings, const std::string& vocabulary, const std::string& out,
                   const std::shared_ptr<rvwo::Segmenter>& segmenter)
@@ -324,6 +325,9 @@ class OrbSlam3Backend {
     w.sigma_z = opt.out_of_plane.sigma_z;
     w.sigma_rollpitch = std::sqrt(opt.out_of_plane.sigma_rollpitch(0, 0));
     if (const auto v = settings.number("Tracking.SlipCheck")) w.slip_check = *v != 0;
+    w.calibrate = opt.calibrate;
+    if (const auto v = settings.number("LocalMapping.Planar")) w.local_map = *v != 0;
+    if (const auto v = settings.number("LocalMapping.MaxWheelSpan")) w.max_wheel_span = *v;
     std::vector<std::pair<std::string, std::string>> more;
     for (const char* prefix : {"Odometry.Noise", "Reliability.", "Semantics."}) {
       for (const std::string& key : settings.keysWithPrefix(prefix)) {
@@ -386,6 +390,7 @@ class OrbSlam3Backend {
     rep->wheel_only_intervals = result.wheel_only_intervals;
     rep->slip_frames = result.slip_frames;
     rep->segmented_keyframes = result.segmented_keyframes;
+    rep->wheel_calibration = result.wheel_calibration;
     rep->timings = {{"TrackFrame", rvwo::estimator::TimingStats::of(track_ms_)}};
     return out;
   }
@@ -742,11 +747,11 @@ int main(int argc, char** argv) {
           "  frames where vision overruled the wheels (a slip): %zu; wheel edges local BA found wrong: %zu; "
           "relocalised: %zu\n",
           rep.slip_frames, rep.wheel_edge_outliers, rep.relocalisations);
-      if (opt.calibrate) {
-        const rvwo::WheelCalibration& c = rep.wheel_calibration;
-        std::printf("  wheel calibration (estimated): distance x%.4f, turn x%.4f, curvature %+.4f rad/m\n", 1 + c.x(),
-                    1 + c.y(), c.z());
-      }
+    }
+    if (opt.mode == rvwo::estimator::Mode::kVw && opt.calibrate) {
+      const rvwo::WheelCalibration& c = rep.wheel_calibration;
+      std::printf("  wheel calibration (estimated): distance x%.4f, turn x%.4f, curvature %+.4f rad/m\n", 1 + c.x(),
+                  1 + c.y(), c.z());
     }
     if (skipped > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped);
     // CPU as well as wall time: the wall time depends on what else the machine runs, the CPU says

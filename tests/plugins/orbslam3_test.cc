@@ -15,6 +15,7 @@
 #include <random>
 
 #include "../common/temp.h"
+#include "orbslam3_common.h"
 #include "rvwo/edges/se2.h"
 #include "rvwo/kernels/semantic_priors.h"
 #include "rvwo/orbslam3/wheel_input.h"
@@ -25,16 +26,9 @@ namespace {
 using rvwo::orbslam3::WheelInput;
 using rvwo::orbslam3::WheelInputParams;
 using rvwo::orbslam3::WheelReading;
-
-Eigen::Isometry3d tiltedCamera() {
-  // Looking ahead (camera z along body x), pitched down 5 deg, 0.25 m ahead, 0.4 m up, 3 cm left.
-  Eigen::Matrix3d R;
-  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = R * Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  T.translation() << 0.25, 0.03, 0.4;
-  return T;
-}
+using rvwo::test::cameraPose;
+using rvwo::test::robotOf;
+using rvwo::test::tiltedCamera;
 
 // Ground truth: a drive that turns both ways and passes theta = +-pi.
 rvwo::SE2 truth(double t) {
@@ -197,11 +191,6 @@ using rvwo::orbslam3::PoseMatch;
 using rvwo::orbslam3::PoseProblem;
 using rvwo::orbslam3::PoseSolution;
 
-// ORB-SLAM3's world is its first camera's frame; the robot's planar world lies T_b_c under it.
-Eigen::Isometry3d cameraPose(const rvwo::SE2& x_w_b, const Eigen::Isometry3d& T_b_c) {
-  return (T_b_c.inverse() * x_w_b.isometry3() * T_b_c).inverse();  // T_c_w
-}
-
 struct StereoFrame {
   PoseProblem problem;
   std::vector<char> bad;
@@ -234,14 +223,6 @@ struct StereoFrame {
     }
   }
 };
-
-// The robot pose a solution's camera pose means, and how far that camera pose is off the plane.
-rvwo::SE2 robotOf(const Eigen::Isometry3d& T_c_w, const Eigen::Isometry3d& T_b_c, double* off_plane) {
-  const Eigen::Isometry3d T_w_b = T_b_c * T_c_w.inverse() * T_b_c.inverse();
-  *off_plane = std::fabs(T_w_b.translation().z()) + std::fabs(T_w_b.linear()(2, 2) - 1.0);
-  return rvwo::SE2(T_w_b.translation().x(), T_w_b.translation().y(),
-                   std::atan2(T_w_b.linear()(1, 0), T_w_b.linear()(0, 0)));
-}
 
 // The odometry reports the truth (or, slipping, what `claimed` says) at 100 Hz over [0, 1].
 void configureWheels(WheelInput& w, const Eigen::Isometry3d& T_b_c, const std::function<rvwo::SE2(double)>& claimed,

@@ -92,6 +92,9 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
         << "\nTracking.SigmaZ: " << real(wheels->sigma_z)
         << "\nTracking.SigmaRollPitch: " << real(wheels->sigma_rollpitch)
         << "\nTracking.SlipCheck: " << (wheels->slip_check ? 1 : 0) << "\n";
+    out << "LocalMapping.Planar: " << (wheels->local_map ? 1 : 0)
+        << "\nLocalMapping.MaxWheelSpan: " << real(wheels->max_wheel_span)
+        << "\nOdometry.Calibrate: " << (wheels->calibrate ? 1 : 0) << "\n";
     for (const auto& [key, value] : more) out << key << ": " << value << "\n";
   }
   if (!out.flush()) throw std::runtime_error("cannot write " + path);
@@ -202,6 +205,7 @@ Runner::Result Runner::finish(const std::string& scratch) {
   r.segmented_keyframes = w.segmentedKeyFrames();
   r.wheel_only_intervals = w.wheelOnlyIntervals();
   r.slip_frames = w.slipFrames();
+  r.wheel_calibration = w.calibration();
   std::remove(frames.c_str());
   std::remove(keyframes.c_str());
   return r;

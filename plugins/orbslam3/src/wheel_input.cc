@@ -1,14 +1,21 @@
 // Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
 #include "rvwo/orbslam3/wheel_input.h"
 
+#include <ceres/ceres.h>
+#include <ceres/normal_prior.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <deque>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 
+#include "rvwo/ceres/barron_loss.h"
+#include "rvwo/ceres/costs.h"
+#include "rvwo/ceres/se2_manifold.h"
 #include "rvwo/edges/camera.h"
 #include "rvwo/edges/wheel_preintegration.h"
 #include "rvwo/kernels/reliability.h"
@@ -39,9 +46,17 @@ struct WheelInput::Impl {
     out_of_plane.sigma_z = p.sigma_z;
     out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * p.sigma_rollpitch * p.sigma_rollpitch;
   }
+  // Tracking calls everything but optimiseLocalMap, ORB-SLAM3's local mapping thread that: what
+  // both read or write (the readings, the reliabilities, the slips) is guarded by this.
+  mutable std::mutex mutex;
   WheelInputParams params;
   DiffDriveParams drive;
   WheelOdometry odometry;
+  // The odometry's calibration, refined by each local map the wheels agree with (optimiseLocalMap)
+  // and applied to every wheel delta (the suite's wheels: radii 1 % off each way, a turn-rate bias
+  // of 0.9 deg/s at 0.3 m/s, which tight wheel edges between keyframes pressed onto the map).
+  WheelCalibration calibration = WheelCalibration::Zero();
+  WheelDelta integrate(double t0, double t1) const { return odometry.integrate(t0, t1, calibration); }
   std::size_t wheel_frames = 0;
   int run = 0;  // frames on the wheels in a row, this one included
   bool keyframe = false;
@@ -58,6 +73,26 @@ struct WheelInput::Impl {
   // measured no better: stereo slip ATE 0.0123 and 0.0137 m, against 0.0113 and 0.0169 m this way.)
   bool slipping = false;
   std::size_t slip_frames = 0;
+  // Where the wheels were overruled, (from, to] on the camera's clock: a wheel edge of the local
+  // map across one gets a Huber kernel (it measured motion that did not happen). A creep counts
+  // from the start of the stretch that showed it.
+  std::deque<std::pair<double, double>> slipped;
+  void markSlip(double from, double to) {
+    if (!slipped.empty() && from <= slipped.back().second) {
+      slipped.back().first = std::min(slipped.back().first, from);
+      slipped.back().second = std::max(slipped.back().second, to);
+    } else {
+      slipped.emplace_back(from, to);
+    }
+  }
+  bool slipBetween(double ti, double tj) const {
+    for (const auto& [from, to] : slipped)
+      if (from < tj && ti < to) return true;
+    return false;
+  }
+  bool covers(double ti, double tj) const {
+    return !odometry.empty() && ti <= tj && odometry.firstTime() <= ti && tj <= odometry.lastTime();
+  }
   // The last frame optimisePose placed, and the last one of those vision went on to track: after
   // a stretch on the wheels alone the wheel edge starts there, so that it carries the stretch's
   // whole uncertainty. (Tied to the previous frame, itself the wheels' guess, it held the frame
@@ -171,6 +206,10 @@ void WheelInput::configure(const std::string& settings_path) {
   p.sigma_z = s.number("Tracking.SigmaZ").value_or(p.sigma_z);
   p.sigma_rollpitch = s.number("Tracking.SigmaRollPitch").value_or(p.sigma_rollpitch);
   p.slip_check = s.number("Tracking.SlipCheck").value_or(1.0) != 0.0;
+  p.local_map = s.number("LocalMapping.Planar").value_or(1.0) != 0.0;
+  p.max_wheel_span = s.number("LocalMapping.MaxWheelSpan").value_or(p.max_wheel_span);
+  p.calibrate = s.number("Odometry.Calibrate").value_or(1.0) != 0.0;
+  if (!(p.max_wheel_span > 0)) throw std::invalid_argument(settings_path + ": LocalMapping.MaxWheelSpan must be > 0 s");
   const double dilation = s.number("Segmentation.LabelDilation").value_or(p.label_dilation_px);
   if (!(dilation >= 0 && dilation <= 100 && dilation == std::floor(dilation)))
     throw std::invalid_argument(settings_path +
@@ -206,6 +245,7 @@ void WheelInput::add(const std::vector<WheelReading>& readings) {
     throw std::invalid_argument(
         "wheel readings given, but the settings have no Camera.T_b_c (RVWO's wheel input is off)");
   }
+  std::lock_guard<std::mutex> lock(impl_->mutex);
   for (const WheelReading& r : readings) {
     switch (r.kind) {
       case WheelReading::kWheelAngles:
@@ -224,13 +264,16 @@ void WheelInput::add(const std::vector<WheelReading>& readings) {
 }
 
 bool WheelInput::covers(double ti, double tj) const {
-  if (!impl_ || impl_->odometry.empty() || !(ti <= tj)) return false;
-  return impl_->odometry.firstTime() <= ti && tj <= impl_->odometry.lastTime();
+  if (!impl_) return false;
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->covers(ti, tj);
 }
 
 Eigen::Isometry3d WheelInput::predict(const Eigen::Isometry3d& T_ci_w, double ti, double tj) const {
-  if (!covers(ti, tj)) throw std::out_of_range("wheel readings do not cover the frames' times");
-  const Eigen::Isometry3d T_bi_bj = impl_->odometry.integrate(ti, tj).pose().isometry3();
+  if (!impl_) throw std::out_of_range("wheel readings do not cover the frames' times");
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  if (!impl_->covers(ti, tj)) throw std::out_of_range("wheel readings do not cover the frames' times");
+  const Eigen::Isometry3d T_bi_bj = impl_->integrate(ti, tj).pose().isometry3();
   const Eigen::Isometry3d& T_b_c = impl_->params.T_b_c;
   return T_b_c.inverse() * T_bi_bj.inverse() * T_b_c * T_ci_w;
 }
@@ -238,13 +281,19 @@ Eigen::Isometry3d WheelInput::predict(const Eigen::Isometry3d& T_ci_w, double ti
 void WheelInput::frameTracked(double t, bool visual, int features) {
   if (!impl_) return;
   Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.mutex);
   const bool solved = m.solved.set && m.solved.t == t;
   if (visual && solved) m.anchor = m.solved;
   // A frame is a slip when its last solve was one (counted once, however often it was solved).
   m.slip_frames += solved && m.solved.slip;
-  // Predictions start at the last frame, wheel edges at the last visual one: a second before
-  // either is margin enough. (Memory stays bounded: at most a minute of readings.)
-  m.odometry.dropBefore(std::max(t - 60.0, std::min(t, m.anchor.set ? m.anchor.t : t) - 1.0));
+  // Predictions start at the last frame, wheel edges at the last visual one, the local map's at
+  // keyframes up to max_wheel_span apart, among the last kKeepForLocalMap seconds' (older ones
+  // are held fixed there, or seen again after a loop: their wheel edges would span minutes).
+  // Memory stays bounded: at most a minute of readings.
+  constexpr double kKeepForLocalMap = 20.0;  // s
+  const double keep = std::min({t - kKeepForLocalMap, m.anchor.set ? m.anchor.t - 1.0 : t});
+  m.odometry.dropBefore(std::max(t - 60.0, keep));
+  while (!m.slipped.empty() && m.slipped.front().second < t - 60.0) m.slipped.pop_front();
   if (visual) {
     m.run = 0;
     m.keyframe = false;
@@ -276,6 +325,7 @@ bool WheelInput::optimisesPoses() const { return impl_ && impl_->params.planar &
 bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   if (!optimisesPoses() || pb.matches.size() < 3) return false;
   Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.mutex);
   if (m.segmenter) m.applyLabels();
   m.makeEdges(pb);
   const std::size_t n = pb.matches.size();
@@ -298,10 +348,10 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   std::optional<WheelDelta> delta;
   std::optional<WheelEdge> edge;
   Eigen::Vector3d x_prev = Eigen::Vector3d::Zero();
-  const bool from_anchor = m.run > 0 && m.anchor.set && covers(m.anchor.t, pb.t);
-  if (from_anchor || (pb.has_previous && covers(pb.t_previous, pb.t))) {
+  const bool from_anchor = m.run > 0 && m.anchor.set && m.covers(m.anchor.t, pb.t);
+  if (from_anchor || (pb.has_previous && m.covers(pb.t_previous, pb.t))) {
     x_prev = from_anchor ? m.anchor.x : m.planarOf(pb.T_cp_w);
-    delta = m.odometry.integrate(from_anchor ? m.anchor.t : pb.t_previous, pb.t);
+    delta = m.integrate(from_anchor ? m.anchor.t : pb.t_previous, pb.t);
     try {
       edge.emplace(*delta);
     } catch (const std::invalid_argument&) {  // degenerate covariance: vision alone
@@ -317,6 +367,7 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   // test, without its labels: ORB-SLAM3 has none yet in tracking). Among walkers the wheels side
   // with the static points and keep the pose (looksLikeSlip).
   bool slip = false;
+  double slip_from = from_anchor ? m.anchor.t : pb.t_previous;
   if (edge && m.params.slip_check) {
     // Vision alone every frame (0.5 to 2 ms for 100 to 300 matches, rvwo_bench_pose; ORB-SLAM3's
     // TrackFrame averaged 26 to 28 ms on the stereo slip scenario with it): its own track is what
@@ -331,9 +382,10 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
     if (!track.empty() && track.back().t == pb.t) track.pop_back();  // the frame solved again
     while (!track.empty() && track.front().t < pb.t - Impl::kCreepStretch) track.pop_front();
     bool creeping = false;
-    if (placed && !track.empty() && covers(track.front().t, pb.t)) {
-      const WheelDelta stretch = m.odometry.integrate(track.front().t, pb.t);
+    if (placed && !track.empty() && m.covers(track.front().t, pb.t)) {
+      const WheelDelta stretch = m.integrate(track.front().t, pb.t);
       creeping = wheelsCreep(stretch, track.front().x, track.front().information, x_vision, rv.information);
+      if (creeping) slip_from = std::min(slip_from, track.front().t);
     }
     if (placed) track.push_back({pb.t, x_vision, rv.information});
     SlipEvidence e;
@@ -351,6 +403,7 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
       slip = true;
       x = x_vision;
       r = std::move(rv);
+      m.markSlip(slip_from, pb.t);
     }
   }
   m.slipping = slip;
@@ -369,8 +422,211 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
 
 std::size_t WheelInput::slipFrames() const { return impl_ ? impl_->slip_frames : 0; }
 
+Eigen::Vector3d WheelInput::calibration() const {
+  if (!impl_) return Eigen::Vector3d::Zero();
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->calibration;
+}
+
+bool WheelInput::optimisesLocalMaps() const { return optimisesPoses() && impl_->params.local_map; }
+
+namespace {
+
+// Ends the solve when ORB-SLAM3 asks local mapping to (a new keyframe came): the state reached is
+// kept, as g2o's force-stop flag keeps it in ORB-SLAM3's own local bundle adjustment.
+class StopFlag final : public ceres::IterationCallback {
+ public:
+  explicit StopFlag(const bool* stop) : stop_(stop) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return stop_ && *stop_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const bool* stop_;
+};
+
+}  // namespace
+
+bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* out, const bool* stop) {
+  if (!optimisesLocalMaps()) return false;
+  Impl& m = *impl_;
+  const std::size_t nk = pb.keyframes.size(), np = pb.points.size(), no = pb.observations.size();
+  out->T_c_w.resize(nk);
+  out->P_w.resize(np);
+  out->outlier.assign(no, 0);
+  out->wheel_edges = 0;
+  out->calibrated = false;
+  for (std::size_t k = 0; k < nk; ++k) out->T_c_w[k] = pb.keyframes[k].T_c_w;
+  for (std::size_t i = 0; i < np; ++i) out->P_w[i] = pb.points[i].P_w;
+  if (nk == 0) return true;
+
+  // On the plane: keyframes as robot poses x_w_b (out of the plane parts dropped, as tracking
+  // drops them), points in the planar world (T_w_c0 = T_b_c).
+  std::vector<Eigen::Vector3d> x(nk), P(np);
+  for (std::size_t k = 0; k < nk; ++k) x[k] = m.planarOf(pb.keyframes[k].T_c_w);
+  for (std::size_t i = 0; i < np; ++i) P[i] = m.params.T_b_c * pb.points[i].P_w;
+  const MapKeyFrame& k0 = pb.keyframes.front();
+  const PinholeCamera camera(k0.fx, k0.fy, k0.cx, k0.cy);
+  const Se2XyzMonoEdge mono(camera, m.params.T_b_c);
+  const Se2XyzStereoEdge stereo(camera, m.params.T_b_c, k0.bf);
+
+  // What tracking shares: each point's shape (eq. 7) and the wheels between keyframes.
+  std::vector<double> alpha(np, 1.0);
+  struct Span {
+    std::size_t a, b;
+    WheelDelta delta;
+    bool slipped;
+  };
+  std::vector<Span> spans;
+  WheelCalibration c;
+  {
+    std::lock_guard<std::mutex> lock(m.mutex);
+    c = m.calibration;
+    if (!m.params.huber)
+      for (std::size_t i = 0; i < np; ++i) alpha[i] = m.reliability.alpha(pb.points[i].id);
+    // Wheel edges between keyframes consecutive in time (eq. 14), both ends in the problem and
+    // one at least free. ORB-SLAM3's local window is the covisible keyframes: mostly the last
+    // ones, whose wheel edges chain them to the fixed ones before.
+    std::vector<std::size_t> order(nk);
+    for (std::size_t k = 0; k < nk; ++k) order[k] = k;
+    std::sort(order.begin(), order.end(),
+              [&](std::size_t a, std::size_t b) { return pb.keyframes[a].t < pb.keyframes[b].t; });
+    for (std::size_t k = 0; k + 1 < nk; ++k) {
+      const MapKeyFrame &a = pb.keyframes[order[k]], &b = pb.keyframes[order[k + 1]];
+      if ((a.fixed && b.fixed) || !(b.t > a.t) || b.t - a.t > m.params.max_wheel_span || !m.covers(a.t, b.t)) continue;
+      spans.push_back({order[k], order[k + 1], m.integrate(a.t, b.t), m.slipBetween(a.t, b.t)});
+    }
+  }
+
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  const auto sigma = [&](const MapObservation& o) { return std::pow(pb.scale_factor, o.level); };
+  // A rejected point (alpha -inf) stays where it is (its weight far from the solution is zero:
+  // it would leave a singular block); its observations are judged below like the others'.
+  for (std::size_t k = 0; k < no; ++k) {
+    const MapObservation& o = pb.observations[k];
+    if (alpha[o.point] == -BarronKernel::kInfinity) continue;
+    const Eigen::Vector3d& xk = x[o.keyframe];
+    Eigen::Vector3d& Pi = P[o.point];
+    Eigen::Vector2d h;
+    if (!mono.predict(xk, Pi, &h)) continue;  // behind the camera: judged an outlier below
+    const bool is_stereo = o.u_right >= 0;
+    const double gate = chi2Gate(is_stereo);
+    ceres::LossFunction* loss =
+        m.params.huber ? static_cast<ceres::LossFunction*>(new ceres::HuberLoss(std::sqrt(gate)))
+                       : new ceres_adapters::BarronLoss(alpha[o.point], m.params.barron_scale * std::sqrt(gate));
+    ceres::CostFunction* cost =
+        is_stereo ? static_cast<ceres::CostFunction*>(
+                        new ceres_adapters::Se2XyzCost<3>(stereo, Eigen::Vector3d(o.u, o.v, o.u_right),
+                                                          stereo.sqrtInformation(xk, Pi, sigma(o), m.out_of_plane)))
+                  : new ceres_adapters::Se2XyzCost<2>(mono, Eigen::Vector2d(o.u, o.v),
+                                                      mono.sqrtInformation(xk, Pi, sigma(o), m.out_of_plane));
+    problem.AddResidualBlock(cost, loss, x[o.keyframe].data(), Pi.data());
+  }
+  // The wheel edges, and the calibration as a variable of those the wheels did not slip on (a
+  // slip would be taken for a scale error): a prior around zero and one around the last
+  // estimate, so that each local map refines what those before found (as the estimator's).
+  const WheelCalibration c_before = c;
+  std::vector<ceres::ResidualBlockId> calibrating;
+  for (const Span& sp : spans) {
+    try {
+      const WheelEdge edge(sp.delta);
+      if (sp.slipped) {
+        // Huber at the 99.9 % gate: the wheels claimed motion that did not happen.
+        problem.AddResidualBlock(new ceres_adapters::WheelCost(edge),
+                                 new ceres::HuberLoss(std::sqrt(kChi2WheelOutlier)), x[sp.a].data(), x[sp.b].data());
+      } else if (m.params.calibrate) {
+        // Quadratic: among walkers it is what holds the window to the static world.
+        calibrating.push_back(problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(edge), nullptr,
+                                                       x[sp.a].data(), x[sp.b].data(), c.data()));
+      } else {
+        problem.AddResidualBlock(new ceres_adapters::WheelCost(edge), nullptr, x[sp.a].data(), x[sp.b].data());
+      }
+      ++out->wheel_edges;
+    } catch (const std::invalid_argument&) {  // degenerate covariance: no edge
+    }
+  }
+  if (!calibrating.empty()) {
+    problem.AddResidualBlock(
+        new ceres::NormalPrior(ceres::Matrix(m.params.calibration_sigma.cwiseInverse().asDiagonal()),
+                               ceres::Vector(Eigen::Vector3d::Zero())),
+        nullptr, c.data());
+    problem.AddResidualBlock(
+        new ceres::NormalPrior(ceres::Matrix(m.params.calibration_step.cwiseInverse().asDiagonal()),
+                               ceres::Vector(c_before)),
+        nullptr, c.data());
+  }
+  bool held = false;
+  for (std::size_t k = 0; k < nk; ++k) {
+    if (!problem.HasParameterBlock(x[k].data())) continue;
+    problem.SetManifold(x[k].data(), new ceres_adapters::SE2Manifold);
+    if (pb.keyframes[k].fixed) {
+      problem.SetParameterBlockConstant(x[k].data());
+      held = true;
+    }
+  }
+  if (held && !(stop && *stop)) {
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_SCHUR;  // a few dozen keyframes: 3 each
+    so.max_num_iterations = 10;                  // ORB-SLAM3's
+    so.num_threads = 1;                          // tracking runs beside it
+    so.logging_type = ceres::SILENT;
+    StopFlag stop_flag(stop);
+    so.callbacks.push_back(&stop_flag);
+    ceres::Solver::Summary summary;
+    if (calibrating.empty()) {
+      ceres::Solve(so, &problem, &summary);
+    } else {
+      // The calibration learns only from local maps the wheels agree with once it is applied: a
+      // differential drive's calibration cannot explain a wheel edge left beyond its gate (a slip
+      // tracking missed, walkers pulling the map); then the second half keeps the last, fixed.
+      so.max_num_iterations = 5;
+      ceres::Solve(so, &problem, &summary);
+      bool agree = summary.IsSolutionUsable();
+      for (std::size_t k = 0; agree && k < calibrating.size(); ++k) {
+        double cost = 0.0;
+        agree = problem.EvaluateResidualBlock(calibrating[k], false, &cost, nullptr, nullptr) &&
+                2.0 * cost <= kChi2WheelOutlier;
+      }
+      if (!agree) {
+        c = c_before;
+        problem.SetParameterBlockConstant(c.data());
+      }
+      if (!(stop && *stop)) ceres::Solve(so, &problem, &summary);
+      out->calibrated = agree && summary.IsSolutionUsable() && c.allFinite();
+    }
+  }
+  if (out->calibrated) {
+    std::lock_guard<std::mutex> lock(m.mutex);
+    m.calibration = c;
+  }
+
+  // Outliers as ORB-SLAM3 judges them: beyond the chi2 gate (eq. 10's covariance) or behind.
+  for (std::size_t k = 0; k < no; ++k) {
+    const MapObservation& o = pb.observations[k];
+    PoseObservation po_k;
+    po_k.P_w = P[o.point];
+    po_k.z = Eigen::Vector3d(o.u, o.v, o.u_right);
+    po_k.stereo = o.u_right >= 0;
+    po_k.sigma_px = sigma(o);
+    double chi2 = 0.0;
+    out->outlier[k] =
+        !whitenedChi2(mono, &stereo, po_k, x[o.keyframe], m.out_of_plane, &chi2) || !(chi2 <= chi2Gate(po_k.stereo));
+  }
+  const Eigen::Isometry3d T_c0_w = m.params.T_b_c.inverse();
+  // What was not in the problem (no edge: a keyframe neither seeing nor reached by the wheels, a
+  // rejected point) stays as given.
+  for (std::size_t k = 0; k < nk; ++k)
+    if (!pb.keyframes[k].fixed && problem.HasParameterBlock(x[k].data())) out->T_c_w[k] = m.cameraOf(x[k]);
+  for (std::size_t i = 0; i < np; ++i)
+    if (problem.HasParameterBlock(P[i].data())) out->P_w[i] = T_c0_w * P[i];
+  return true;
+}
+
 void WheelInput::setSegmenter(const std::shared_ptr<Segmenter>& segmenter) {
   if (!impl_) throw std::logic_error("WheelInput::setSegmenter: not configured (no RVWO keys in the settings)");
+  std::lock_guard<std::mutex> lock(impl_->mutex);
   impl_->waiting.clear();
   // Two waiting at most (latest wins): a segmenter slower than keyframes skips some, never lags.
   impl_->segmenter = segmenter ? std::make_unique<AsyncSegmenter>(segmenter, 2) : nullptr;
@@ -381,6 +637,7 @@ bool WheelInput::segments() const { return impl_ && impl_->segmenter; }
 void WheelInput::keyFrame(double t, const cv::Mat& image, const std::vector<KeyFrameFeature>& features) {
   if (!segments()) return;
   Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.mutex);
   const std::uint64_t id = m.keyframes_sent++;
   // A copy: ORB-SLAM3's image may share the caller's buffer, which the next frame may overwrite.
   if (m.segmenter->submit(image.clone(), FrameInfo{id, t})) m.waiting.emplace(id, features);
@@ -389,12 +646,17 @@ void WheelInput::keyFrame(double t, const cv::Mat& image, const std::vector<KeyF
 
 void WheelInput::waitForLabels(double timeout_s) {
   if (!segments()) return;
+  std::lock_guard<std::mutex> lock(impl_->mutex);
   impl_->applyLabels(std::chrono::steady_clock::now() +
                      std::chrono::milliseconds(static_cast<long>(std::max(0.0, timeout_s) * 1000) + 1));
 }
 
 std::size_t WheelInput::segmentedKeyFrames() const { return impl_ ? impl_->segmented : 0; }
 
-double WheelInput::alpha(unsigned long id) const { return impl_ ? impl_->reliability.alpha(id) : 1.0; }
+double WheelInput::alpha(unsigned long id) const {
+  if (!impl_) return 1.0;
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->reliability.alpha(id);
+}
 
 }  // namespace rvwo::orbslam3

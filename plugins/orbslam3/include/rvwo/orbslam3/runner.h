@@ -81,6 +81,7 @@ class Runner {
     std::vector<std::pair<double, double>> wheel_only_intervals;  // [first, last] frame time of each stretch
     std::size_t slip_frames = 0;                                  // frames where vision overruled the wheels
     std::size_t segmented_keyframes = 0;                          // keyframes whose labels came
+    Eigen::Vector3d wheel_calibration = Eigen::Vector3d::Zero();  // as the local maps refined it
   };
   Result finish(const std::string& scratch);
 

@@ -16,6 +16,10 @@
 //     6-DoF PoseOptimization): SE(2)-XYZ edges with out-of-plane noise (eqs. 8 to 10), each map
 //     point under its adaptive Barron kernel (eqs. 6, 7), and the wheel edge from the previous
 //     frame (eq. 14), unless the wheels slipped;
+//   - optimises the local map of a stereo or RGB-D keyframe (optimiseLocalMap, in place of
+//     ORB-SLAM3's 6-DoF LocalBundleAdjustment): keyframe poses on SE(2), map points in 3-D,
+//     SE(2)-XYZ edges under each point's adaptive kernel and wheel edges between keyframes
+//     consecutive in time (eqs. 6 to 14);
 //   - sends keyframes to a segmenter in a thread of its own, and their labels to the reliability
 //     of the map points their keypoints see (eqs. 4, 5): a walker's points lose their weight in
 //     tracking (alpha towards -inf) before they have moved.
@@ -69,7 +73,16 @@ struct WheelInputParams {
   double sigma_z = 0.01;          // m: the body's height off the plane [Tracking.SigmaZ]
   double sigma_rollpitch = 0.01;  // rad: its roll and pitch [Tracking.SigmaRollPitch]
   bool slip_check = true;         // vision alone may overrule wheels that slip [Tracking.SlipCheck: 1 | 0]
-  int label_dilation_px = 8;      // dynamic classes' masks widened by this much [Segmentation.LabelDilation]
+  bool local_map = true;          // optimiseLocalMap answers (with planar) [LocalMapping.Planar: 1 | 0]
+  bool calibrate = true;          // the local map refines the odometry's calibration (distance
+                                  // scale, turn scale, curvature), applied to every wheel edge
+                                  // [Odometry.Calibrate: 1 | 0]
+  Eigen::Vector3d calibration_sigma = Eigen::Vector3d(0.05, 0.05, 0.2);     // prior around 0 (1, 1, rad/m)
+  Eigen::Vector3d calibration_step = Eigen::Vector3d(0.003, 0.003, 0.005);  // around the last, per local map
+  double max_wheel_span = 5.0;  // s: the longest stretch between keyframes a wheel edge of the
+                                // local map spans (calibration errors grow beyond its covariance)
+                                // [LocalMapping.MaxWheelSpan]
+  int label_dilation_px = 8;    // dynamic classes' masks widened by this much [Segmentation.LabelDilation]
   // Segmentation.Model: an ONNX network for the keyframes' labels (a path relative to the settings
   // file; its classes: the label set), else none unless setSegmenter gives one.
   // The label set and its priors: Semantics.LabelSet, Semantics.Prior.<class> (voc21 by default).
@@ -103,6 +116,39 @@ struct PoseProblem {
 struct KeyFrameFeature {
   float u, v;
   unsigned long id;
+};
+
+// ---- A keyframe's local map (ORB-SLAM3's local bundle adjustment problem)
+struct MapKeyFrame {
+  unsigned long id;
+  double t;
+  Eigen::Isometry3d T_c_w;
+  bool fixed;             // held (ORB-SLAM3's: the map's first, and those seeing local points only)
+  double fx, fy, cx, cy;  // rectified pinhole intrinsics [px]
+  double bf;              // stereo baseline times fx [px m]
+};
+struct MapPointEstimate {
+  unsigned long id;
+  Eigen::Vector3d P_w;  // in ORB-SLAM3's world [m]
+};
+struct MapObservation {
+  int keyframe, point;  // indices into LocalMapProblem's keyframes, points
+  double u, v;          // undistorted keypoint [px]
+  double u_right;       // right-image column [px]; < 0: none
+  int level;            // pyramid level
+};
+struct LocalMapProblem {
+  std::vector<MapKeyFrame> keyframes;
+  std::vector<MapPointEstimate> points;
+  std::vector<MapObservation> observations;
+  double scale_factor;  // between pyramid levels
+};
+struct LocalMapSolution {
+  std::vector<Eigen::Isometry3d> T_c_w;  // per keyframe (fixed ones as given)
+  std::vector<Eigen::Vector3d> P_w;      // per point
+  std::vector<char> outlier;             // per observation: beyond the chi2 gate, or behind the camera
+  int wheel_edges;                       // between keyframes
+  bool calibrated;                       // the odometry's calibration learnt from this local map
 };
 
 struct PoseSolution {
@@ -148,6 +194,15 @@ class WheelInput {
   // The pose of a frame on SE(2): false (and nothing written) when optimisesPoses() is false or
   // the problem has fewer than 3 matches, for ORB-SLAM3's own PoseOptimization to run instead.
   bool optimisePose(const PoseProblem& problem, PoseSolution* solution);
+  // Whether optimiseLocalMap answers (optimisesPoses() and LocalMapping.Planar).
+  bool optimisesLocalMaps() const;
+  // The local map on SE(2). Safe to call from ORB-SLAM3's local mapping thread while tracking
+  // calls the rest. stop: ORB-SLAM3's abort flag, read between iterations (the state reached is
+  // kept). False (nothing written) when optimisesLocalMaps() is false.
+  bool optimiseLocalMap(const LocalMapProblem& problem, LocalMapSolution* solution, const bool* stop = 0);
+  // The odometry's calibration as the local maps have refined it: distance scale, turn scale
+  // (relative, 0: as configured), curvature (rad/m) (rvwo/edges/wheel_preintegration.h).
+  Eigen::Vector3d calibration() const;
   // Frames tracked (frameTracked) whose last optimisePose had vision alone overrule the wheels.
   std::size_t slipFrames() const;
 

@@ -1,0 +1,35 @@
+// Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
+// What the ORB-SLAM3 plugin's tests share: a camera on the robot, and the frames between ORB-SLAM3's
+// world (its first camera's frame) and the robot's plane, which lies T_b_c under it.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "rvwo/edges/se2.h"
+
+namespace rvwo::test {
+
+// Looking ahead (camera z along body x), pitched down 5 deg, 0.25 m ahead, 0.4 m up, 3 cm left.
+inline Eigen::Isometry3d tiltedCamera() {
+  Eigen::Matrix3d R;
+  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R * Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T.translation() << 0.25, 0.03, 0.4;
+  return T;
+}
+
+// T_c_w in ORB-SLAM3's world of the camera on a robot at x_w_b.
+inline Eigen::Isometry3d cameraPose(const SE2& x_w_b, const Eigen::Isometry3d& T_b_c) {
+  return (T_b_c.inverse() * x_w_b.isometry3() * T_b_c).inverse();
+}
+
+// The robot pose a camera pose T_c_w means, and how far that camera pose is off the plane.
+inline SE2 robotOf(const Eigen::Isometry3d& T_c_w, const Eigen::Isometry3d& T_b_c, double* off_plane) {
+  const Eigen::Isometry3d T_w_b = T_b_c * T_c_w.inverse() * T_b_c.inverse();
+  *off_plane = std::fabs(T_w_b.translation().z()) + std::fabs(T_w_b.linear()(2, 2) - 1.0);
+  return SE2(T_w_b.translation().x(), T_w_b.translation().y(), std::atan2(T_w_b.linear()(1, 0), T_w_b.linear()(0, 0)));
+}
+
+}  // namespace rvwo::test
