@@ -39,7 +39,7 @@ struct Map;
 struct MapPoint;
 
 struct KeyFrame {
-  unsigned long mnId = 0, mnBALocalForKF = 0, mnBAFixedForKF = 0;
+  unsigned long mnId = 0, mnBALocalForKF = 0, mnBAFixedForKF = 0, mnBAGlobalForKF = 0;
   double mTimeStamp = 0;
   const void* mpCamera2 = nullptr;
   float fx = 400, fy = 400, cx = 319.5f, cy = 239.5f, mbf = 48, mfScaleFactor = 1.2f;
@@ -48,7 +48,7 @@ struct KeyFrame {
   std::vector<MapPoint*> matches;
   std::vector<KeyFrame*> covisible;
   Map* map = nullptr;
-  Pose pose;
+  Pose pose, mTcwGBA;
   std::vector<MapPoint*> GetMapPointMatches() const { return matches; }
   std::vector<KeyFrame*> GetVectorCovisibleKeyFrames() const { return covisible; }
   bool isBad() const { return false; }
@@ -62,8 +62,8 @@ struct KeyFrame {
 };
 
 struct MapPoint {
-  unsigned long mnId = 0, mnBALocalForKF = 0;
-  Eigen::Vector3f P = Eigen::Vector3f::Zero();
+  unsigned long mnId = 0, mnBALocalForKF = 0, mnBAGlobalForKF = 0;
+  Eigen::Vector3f P = Eigen::Vector3f::Zero(), mPosGBA = Eigen::Vector3f::Zero();
   std::map<KeyFrame*, std::tuple<int, int>> observations;
   Map* map = nullptr;
   int updates = 0;
@@ -79,8 +79,13 @@ struct MapPoint {
 struct Map {
   std::mutex mMutexMapUpdate;
   int changes = 0;
+  std::vector<KeyFrame*> keyframes;
+  std::vector<MapPoint*> points;
   unsigned long GetInitKFid() const { return 0; }
   void IncreaseChangeIndex() { ++changes; }
+  std::vector<KeyFrame*> GetAllKeyFrames() const { return keyframes; }
+  std::vector<MapPoint*> GetAllMapPoints() const { return points; }
+  KeyFrame* GetOriginKF() const { return keyframes.front(); }
 };
 
 rvwo::SE2 robotOfPose(const Pose& p, const Eigen::Isometry3d& T_b_c, double* off_plane) {
@@ -131,6 +136,7 @@ struct Scene {
       kf.mTimeStamp = 0.1 * k;
       kf.map = &map;
       kf.pose = rvwo::orbslam3::poseOf<Pose>(cameraPose(drive(kf.mTimeStamp), T_b_c));
+      map.keyframes.push_back(&kf);
     }
     for (int k = 4; k < kKeyFrames - 1; ++k) kfs.back()->covisible.push_back(kfs[k].get());
     for (int i = 0; i < kPoints; ++i) {
@@ -143,6 +149,7 @@ struct Scene {
       mp.mnId = static_cast<unsigned long>(1000 + i);
       mp.map = &map;
       mp.P = truth_P.back().cast<float>();
+      map.points.push_back(&mp);
       for (int k = 0; k < kKeyFrames; ++k) {
         KeyFrame& kf = *kfs[k];
         if (k == kBlind) continue;
@@ -294,6 +301,37 @@ TEST(WheelInputLocalMap, LearnsTheWheelsCalibrationWhereTheyAgree) {
   EXPECT_NEAR(turnError(fixed), before, 1e-9);
 }
 
+TEST(WheelInputGlobalMap, AfterALoopTheWholeMapGoesToTheGbaFieldsOrIntoTheMap) {
+  for (const unsigned long loop_kf : {11ul, 0ul}) {  // a loop's keyframe; the map's origin
+    Scene scene(6);
+    scene.perturb(7);
+    for (int k = 1; k < 4; ++k)  // the keyframes ORB-SLAM3's local map held fixed are free here
+      scene.kfs[k]->pose =
+          rvwo::orbslam3::poseOf<Pose>(cameraPose(drive(0.1 * k) * rvwo::SE2(0.03, 0.02, 0.03), scene.T_b_c));
+    std::vector<Pose> before;
+    for (const auto& kf : scene.kfs) before.push_back(kf->pose);
+    const Eigen::Vector3f P_before = scene.mps[5]->P;
+    bool stop = false;
+    ASSERT_TRUE(rvwo::orbslam3::optimiseGlobalMap(scene.wheels, &scene.map, &stop, loop_kf));
+    const bool into_map = loop_kf == 0;
+    for (int k = 1; k < Scene::kKeyFrames; ++k) {
+      const KeyFrame& kf = *scene.kfs[k];
+      EXPECT_EQ(kf.mnBAGlobalForKF, into_map ? 0ul : loop_kf);
+      // For a loop, the map stays as it was until the loop closer applies the result.
+      if (!into_map) EXPECT_EQ((kf.pose.t - before[k].t).norm(), 0.0f) << k;
+      double off_plane = 1;
+      const rvwo::SE2 e =
+          drive(0.1 * k).inverse() * robotOfPose(into_map ? kf.pose : kf.mTcwGBA, scene.T_b_c, &off_plane);
+      EXPECT_LT(e.translation().norm(), 0.01) << k;
+      EXPECT_LT(std::fabs(e.angle()), 2.5e-3) << k;
+      EXPECT_LT(off_plane, 1e-5) << k;
+    }
+    EXPECT_EQ(scene.mps[5]->mnBAGlobalForKF, into_map ? 0ul : loop_kf);
+    EXPECT_EQ(scene.mps[5]->P == P_before, !into_map);
+    EXPECT_EQ(scene.map.changes, 0);  // nothing erased
+  }
+}
+
 TEST(WheelInputLocalMap, StopFlagOrLocalMappingOffLeaveTheMapAlone) {
   for (const bool local_map : {true, false}) {
     Scene scene(3, local_map);
@@ -317,6 +355,7 @@ TEST(WheelInputLocalMap, MonocularLeavesItToOrbSlam3) {
   bool stop = false;
   EXPECT_FALSE(scene.wheels.optimisesLocalMaps());
   EXPECT_FALSE(rvwo::orbslam3::optimiseLocalMap(scene.wheels, scene.kfs.back().get(), &stop, &scene.map));
+  EXPECT_FALSE(rvwo::orbslam3::optimiseGlobalMap(scene.wheels, &scene.map, &stop, 11));
 }
 
 }  // namespace

@@ -453,6 +453,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   const std::size_t nk = pb.keyframes.size(), np = pb.points.size(), no = pb.observations.size();
   out->T_c_w.resize(nk);
   out->P_w.resize(np);
+  out->solved.assign(np, 0);
   out->outlier.assign(no, 0);
   out->wheel_edges = 0;
   out->calibrated = false;
@@ -620,7 +621,10 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   for (std::size_t k = 0; k < nk; ++k)
     if (!pb.keyframes[k].fixed && problem.HasParameterBlock(x[k].data())) out->T_c_w[k] = m.cameraOf(x[k]);
   for (std::size_t i = 0; i < np; ++i)
-    if (problem.HasParameterBlock(P[i].data())) out->P_w[i] = T_c0_w * P[i];
+    if (problem.HasParameterBlock(P[i].data())) {
+      out->P_w[i] = T_c0_w * P[i];
+      out->solved[i] = 1;
+    }
   return true;
 }
 

@@ -9,11 +9,14 @@
 // 6, 7; a rejected one, alpha -inf, stays where it is), out-of-plane noise (eq. 10), and wheel
 // edges between keyframes consecutive in time (eq. 14).
 //
-// Called by the patched LocalMapping.cc (C++11); templated on ORB-SLAM3's KeyFrame and Map so
-// that no ORB-SLAM3 header is needed here (nor Sophus: poses are read through rotationMatrix()
-// and translation(), and made from a quaternion and a translation, as Sophus::SE3f is). Returns
-// false, having done nothing, for ORB-SLAM3's own to run instead: a monocular system, a
-// two-camera (fisheye) rig, RVWO's keys absent or LocalMapping.Planar 0.
+// optimiseGlobalMap does the same for the whole map after a loop closed, in place of
+// Optimizer::GlobalBundleAdjustemnt (its contract below).
+//
+// Called by the patched LocalMapping.cc and LoopClosing.cc (C++11); templated on ORB-SLAM3's
+// KeyFrame and Map so that no ORB-SLAM3 header is needed here (nor Sophus: poses are read through
+// rotationMatrix() and translation(), and made from a quaternion and a translation, as
+// Sophus::SE3f is). Both return false, having done nothing, for ORB-SLAM3's own to run instead: a
+// monocular system, a two-camera (fisheye) rig, RVWO's keys absent or LocalMapping.Planar 0.
 #pragma once
 
 #include <cstddef>
@@ -43,6 +46,47 @@ PoseT poseOf(const Eigen::Isometry3d& T) {
   return PoseT(Eigen::Quaternionf(Eigen::Quaterniond(T.linear()).normalized().cast<float>()),
                Eigen::Vector3f(T.translation().cast<float>()));
 }
+
+namespace detail {
+
+// The problem of these keyframes (the first n_free free unless the map's first) and points, and
+// which keyframe and point each observation joins.
+template <class KeyFrameT, class MapPointT>
+void makeProblem(const std::vector<KeyFrameT*>& keyframes, std::size_t n_free, unsigned long first,
+                 const std::vector<MapPointT*>& points, LocalMapProblem* problem,
+                 std::vector<std::pair<KeyFrameT*, MapPointT*> >* seen_by) {
+  problem->scale_factor = keyframes.front()->mfScaleFactor;
+  std::map<KeyFrameT*, int> index;
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    KeyFrameT* kf = keyframes[k];
+    const MapKeyFrame m = {
+        kf->mnId, kf->mTimeStamp, isometryOf(kf->GetPose()), k >= n_free || kf->mnId == first, kf->fx, kf->fy, kf->cx,
+        kf->cy,   kf->mbf};
+    problem->keyframes.push_back(m);
+    index[kf] = static_cast<int>(k);
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const MapPointEstimate p = {points[i]->mnId, points[i]->GetWorldPos().template cast<double>()};
+    problem->points.push_back(p);
+    const std::map<KeyFrameT*, std::tuple<int, int> > observations = points[i]->GetObservations();
+    for (typename std::map<KeyFrameT*, std::tuple<int, int> >::const_iterator it = observations.begin();
+         it != observations.end(); ++it) {
+      const typename std::map<KeyFrameT*, int>::const_iterator k = index.find(it->first);
+      const int left = std::get<0>(it->second);
+      if (k == index.end() || left < 0) continue;
+      const MapObservation o = {k->second,
+                                static_cast<int>(i),
+                                it->first->mvKeysUn[left].pt.x,
+                                it->first->mvKeysUn[left].pt.y,
+                                it->first->mvuRight[left],
+                                it->first->mvKeysUn[left].octave};
+      problem->observations.push_back(o);
+      seen_by->push_back(std::make_pair(it->first, points[i]));
+    }
+  }
+}
+
+}  // namespace detail
 
 template <class KeyFrameT, class MapT>
 bool optimiseLocalMap(WheelInput& wheels, KeyFrameT* keyframe, bool* stop, MapT* map) {
@@ -89,36 +133,8 @@ bool optimiseLocalMap(WheelInput& wheels, KeyFrameT* keyframe, bool* stop, MapT*
   if (!held) return true;  // as ORB-SLAM3: nothing holds the map, nothing is done
 
   LocalMapProblem problem;
-  problem.scale_factor = keyframe->mfScaleFactor;
-  std::map<KeyFrameT*, int> index;
-  for (std::size_t k = 0; k < keyframes.size(); ++k) {
-    KeyFrameT* kf = keyframes[k];
-    const MapKeyFrame m = {
-        kf->mnId, kf->mTimeStamp, isometryOf(kf->GetPose()), k >= n_local || kf->mnId == first, kf->fx, kf->fy, kf->cx,
-        kf->cy,   kf->mbf};
-    problem.keyframes.push_back(m);
-    index[kf] = static_cast<int>(k);
-  }
   std::vector<std::pair<KeyFrameT*, MapPointT*> > seen_by;  // per observation
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const MapPointEstimate p = {points[i]->mnId, points[i]->GetWorldPos().template cast<double>()};
-    problem.points.push_back(p);
-    const std::map<KeyFrameT*, std::tuple<int, int> > observations = points[i]->GetObservations();
-    for (typename std::map<KeyFrameT*, std::tuple<int, int> >::const_iterator it = observations.begin();
-         it != observations.end(); ++it) {
-      const typename std::map<KeyFrameT*, int>::const_iterator k = index.find(it->first);
-      const int left = std::get<0>(it->second);
-      if (k == index.end() || left < 0) continue;
-      const MapObservation o = {k->second,
-                                static_cast<int>(i),
-                                it->first->mvKeysUn[left].pt.x,
-                                it->first->mvKeysUn[left].pt.y,
-                                it->first->mvuRight[left],
-                                it->first->mvKeysUn[left].octave};
-      problem.observations.push_back(o);
-      seen_by.push_back(std::make_pair(it->first, points[i]));
-    }
-  }
+  detail::makeProblem(keyframes, n_local, first, points, &problem, &seen_by);
   if (stop && *stop) return true;
   LocalMapSolution solution;
   if (!wheels.optimiseLocalMap(problem, &solution, stop)) return false;
@@ -136,6 +152,56 @@ bool optimiseLocalMap(WheelInput& wheels, KeyFrameT* keyframe, bool* stop, MapT*
     points[i]->UpdateNormalAndDepth();
   }
   map->IncreaseChangeIndex();
+  return true;
+}
+
+// The whole map on SE(2) after a loop closed (WheelInput::optimiseLocalMap over every keyframe,
+// the map's first fixed), in place of ORB-SLAM3's Optimizer::GlobalBundleAdjustemnt, with its
+// contract: for the loop of keyframe loop_kf, results go to mTcwGBA and mPosGBA (marked
+// mnBAGlobalForKF = loop_kf; points left out, rejected ones among them, are not marked and follow
+// their reference keyframe's correction), or straight into the map when loop_kf is the map's
+// origin keyframe. Nothing is erased. False, having done nothing, as optimiseLocalMap.
+template <class MapT>
+bool optimiseGlobalMap(WheelInput& wheels, MapT* map, bool* stop, unsigned long loop_kf) {
+  typedef typename std::remove_pointer<typename std::decay<decltype(map->GetAllKeyFrames()[0])>::type>::type KeyFrameT;
+  typedef typename std::remove_pointer<typename std::decay<decltype(map->GetAllMapPoints()[0])>::type>::type MapPointT;
+  typedef typename std::decay<decltype(map->GetOriginKF()->GetPose())>::type PoseT;
+  if (!wheels.optimisesLocalMaps()) return false;
+  std::vector<KeyFrameT*> keyframes;
+  const std::vector<KeyFrameT*> all = map->GetAllKeyFrames();
+  for (std::size_t k = 0; k < all.size(); ++k)
+    if (!all[k]->isBad()) keyframes.push_back(all[k]);
+  if (keyframes.empty() || keyframes.front()->mpCamera2) return false;
+  std::vector<MapPointT*> points;
+  const std::vector<MapPointT*> all_points = map->GetAllMapPoints();
+  for (std::size_t i = 0; i < all_points.size(); ++i)
+    if (!all_points[i]->isBad()) points.push_back(all_points[i]);
+  LocalMapProblem problem;
+  std::vector<std::pair<KeyFrameT*, MapPointT*> > seen_by;
+  detail::makeProblem(keyframes, keyframes.size(), map->GetInitKFid(), points, &problem, &seen_by);
+  LocalMapSolution solution;
+  if (!wheels.optimiseLocalMap(problem, &solution, stop)) return false;
+  const bool into_map = loop_kf == map->GetOriginKF()->mnId;
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    const PoseT T = poseOf<PoseT>(solution.T_c_w[k]);
+    if (into_map) {
+      keyframes[k]->SetPose(T);
+    } else {
+      keyframes[k]->mTcwGBA = T;
+      keyframes[k]->mnBAGlobalForKF = loop_kf;
+    }
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!solution.solved[i]) continue;
+    const Eigen::Vector3f P(solution.P_w[i].cast<float>());
+    if (into_map) {
+      points[i]->SetWorldPos(P);
+      points[i]->UpdateNormalAndDepth();
+    } else {
+      points[i]->mPosGBA = P;
+      points[i]->mnBAGlobalForKF = loop_kf;
+    }
+  }
   return true;
 }
 

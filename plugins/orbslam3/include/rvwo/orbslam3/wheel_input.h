@@ -146,6 +146,7 @@ struct LocalMapProblem {
 struct LocalMapSolution {
   std::vector<Eigen::Isometry3d> T_c_w;  // per keyframe (fixed ones as given)
   std::vector<Eigen::Vector3d> P_w;      // per point
+  std::vector<char> solved;              // per point: in the problem (not rejected, seen)
   std::vector<char> outlier;             // per observation: beyond the chi2 gate, or behind the camera
   int wheel_edges;                       // between keyframes
   bool calibrated;                       // the odometry's calibration learnt from this local map
