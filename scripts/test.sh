@@ -33,8 +33,8 @@ if [ "${RVWO_SANITIZERS:-1}" != 0 ]; then
   cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS=-O1 -DRVWO_SANITIZE=thread \
     -DRVWO_BUILD_BENCHMARKS=OFF -DRVWO_BUILD_APPS=OFF -DRVWO_WITH_G2O=OFF \
     >build-tsan-configure.log || { cat build-tsan-configure.log; exit 1; }
-  cmake --build build-tsan --target kernels_test semantics_test estimator_test
+  cmake --build build-tsan --target kernels_test semantics_test estimator_test orbslam3_local_map_test
   stamp "threaded tests under ThreadSanitizer"
-  TSAN_OPTIONS=halt_on_error=1 ctest --test-dir build-tsan --output-on-failure -R 'ReliabilityManager|AsyncSegmenter|Estimator\.Threaded'
+  TSAN_OPTIONS=halt_on_error=1 ctest --test-dir build-tsan --output-on-failure -R 'ReliabilityManager|AsyncSegmenter|Estimator\.Threaded|WheelInputLocalMap\.ConcurrentWithTracking'
 fi
 stamp "all tests passed"

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <opencv2/core/types.hpp>
 #include <random>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -329,6 +330,37 @@ TEST(WheelInputGlobalMap, AfterALoopTheWholeMapGoesToTheGbaFieldsOrIntoTheMap) {
     EXPECT_EQ(scene.mps[5]->mnBAGlobalForKF, into_map ? 0ul : loop_kf);
     EXPECT_EQ(scene.mps[5]->P == P_before, !into_map);
     EXPECT_EQ(scene.map.changes, 0);  // nothing erased
+  }
+}
+
+TEST(WheelInputLocalMap, ConcurrentWithTracking) {
+  // ORB-SLAM3's local mapping thread solves local maps while tracking adds readings, predicts and
+  // reports frames (run under ThreadSanitizer by scripts/test.sh).
+  Scene scene(8);
+  scene.perturb(9);
+  std::thread tracking([&] {
+    rvwo::SE2 x = drive(1.2);
+    for (int k = 1; k <= 300; ++k) {
+      const double t = 1.2 + 0.01 * k;
+      x = x * rvwo::SE2(0.006, 0.0, 0.005);
+      scene.wheels.add({WheelReading::pose(t, x.translation().x(), x.translation().y(), x.angle())});
+      const Eigen::Isometry3d T = scene.wheels.predict(Eigen::Isometry3d::Identity(), t - 0.01, t);
+      EXPECT_TRUE(T.matrix().allFinite());
+      if (k % 3 == 0) scene.wheels.frameTracked(t, true, 800);
+      EXPECT_EQ(scene.wheels.alpha(1000), 1.0);
+      EXPECT_TRUE(scene.wheels.calibration().allFinite());
+    }
+  });
+  for (int round = 0; round < 4; ++round) {
+    scene.again();
+    bool stop = false;
+    EXPECT_TRUE(rvwo::orbslam3::optimiseLocalMap(scene.wheels, scene.kfs.back().get(), &stop, &scene.map));
+  }
+  tracking.join();
+  for (int k = 4; k < Scene::kKeyFrames; ++k) {
+    double off_plane = 1;
+    const rvwo::SE2 e = drive(0.1 * k).inverse() * robotOfPose(scene.kfs[k]->pose, scene.T_b_c, &off_plane);
+    EXPECT_LT(e.translation().norm(), 0.01) << k;
   }
 }
 
