@@ -427,6 +427,52 @@ TEST(WheelInputPose, WheelsThatCreepLoseToVisionWithinAFewFrames) {
 // ---- labels: keyframes to a segmenter, labels to the map points' reliabilities (eqs. 4, 5)
 
 // Labels a person (voc21's 15) on the left half of every image, background on the right.
+// Every pixel the background (class 0).
+class Background final : public rvwo::Segmenter {
+ public:
+  rvwo::Segmentation segment(const cv::Mat& image, const rvwo::FrameInfo&) override {
+    rvwo::Segmentation s;
+    s.labels = cv::Mat::zeros(image.rows, image.cols, CV_32S);
+    return s;
+  }
+  const std::vector<std::string>& classNames() const override { return names_; }
+
+ private:
+  std::vector<std::string> names_ = rvwo::SemanticPriors::builtin("voc21").classes();
+};
+
+TEST(WheelInputLabels, WithASegmenterOnlyLabelledPointsOverruleTheWheels) {
+  // The slip above, with a segmenter: until a keyframe's labels reach the points, vision alone
+  // does not count against the wheels (a keyframe's new points are often a walker's).
+  const Eigen::Isometry3d T_b_c = tiltedCamera();
+  const rvwo::SE2 still(1.0, 2.0, 0.3);
+  WheelInput w;
+  configureWheels(w, T_b_c, [&](double t) { return still * rvwo::SE2(0.6 * t, 0, 0); });
+  w.setSegmenter(std::make_shared<Background>());
+  StereoFrame f(still, T_b_c, 200, 0.0, 5);
+  f.problem.t = 0.5;
+  f.problem.has_previous = true;
+  f.problem.t_previous = 0.4;
+  f.problem.T_cp_w = cameraPose(still, T_b_c);
+  f.problem.T_c_w = cameraPose(still * rvwo::SE2(0.06, 0, 0), T_b_c);
+  PoseSolution s;
+  ASSERT_TRUE(w.optimisePose(f.problem, &s));
+  EXPECT_FALSE(s.slip);
+  // Nor do they place the frame: the wheels do, 6 cm on (vision alone would have it stand).
+  double off_plane = 1;
+  const rvwo::SE2 claimed = still * rvwo::SE2(0.06, 0, 0);
+  EXPECT_LT((claimed.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm(), 0.005);
+  // A keyframe labels them static: now they overrule the wheels.
+  std::vector<rvwo::orbslam3::KeyFrameFeature> features;
+  for (const auto& m : f.problem.matches) features.push_back({static_cast<float>(m.u), static_cast<float>(m.v), m.id});
+  w.keyFrame(0.4, cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)), features);
+  w.waitForLabels(5.0);
+  ASSERT_EQ(w.segmentedKeyFrames(), 1u);
+  ASSERT_TRUE(w.optimisePose(f.problem, &s));
+  EXPECT_TRUE(s.slip);
+  EXPECT_LT((still.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm(), 0.002);
+}
+
 class HalfPerson final : public rvwo::Segmenter {
  public:
   rvwo::Segmentation segment(const cv::Mat& image, const rvwo::FrameInfo&) override {
@@ -476,6 +522,13 @@ TEST(WheelInputLabels, KeyframeLabelsRejectAWalkersPointsAndKeepTheRest) {
   f.problem.t = 0.5;
   f.problem.T_c_w = cameraPose(rvwo::SE2(0.3, 0.1, 0.2), T_b_c);
   for (PoseMatch& m : f.problem.matches) m.id = m.id == 1 ? 1 : 100 + m.id;
+  // Its other points a keyframe saw on the background: labelled, so trusted to place the frame
+  // (unlabelled ones would only be judged: a keyframe's new points are often a walker's).
+  std::vector<rvwo::orbslam3::KeyFrameFeature> background;
+  for (const PoseMatch& m : f.problem.matches)
+    if (m.id != 1) background.push_back({500.f, 200.f, m.id});
+  w.keyFrame(0.4, image, background);
+  w.waitForLabels(5.0);
   PoseSolution s;
   ASSERT_TRUE(w.optimisePose(f.problem, &s));
   EXPECT_TRUE(s.outlier[1]);

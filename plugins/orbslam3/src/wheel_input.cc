@@ -29,6 +29,10 @@
 namespace rvwo::orbslam3 {
 namespace {
 
+// A point whose P_s (eq. 4) is below this counts as vision's evidence against the wheels (the
+// estimator's Estimator.TrustedMaxPs default).
+constexpr double kTrustedMaxPs = 0.1;
+
 SE2 planar(const Eigen::Isometry3d& T) {
   return SE2(T.translation().x(), T.translation().y(), std::atan2(T.linear()(1, 0), T.linear()(0, 0)));
 }
@@ -329,6 +333,17 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   if (m.segmenter) m.applyLabels();
   m.makeEdges(pb);
   const std::size_t n = pb.matches.size();
+  // Trusted points: no label has called them dynamic and, with a segmenter, a label has reached
+  // them (the estimator's rule). With the adaptive kernel only they place the pose and count as
+  // vision's evidence against the wheels; the others are judged against the gate. A keyframe's
+  // new points are the closest features, often a walker's: placing frames before their labels
+  // came, they turned the robot 10 to 19 deg it did not turn (RGB-D dynamic, 0 to 6 s), and
+  // vision alone took 30 frames there for slips.
+  std::vector<char> trusted(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::optional<LandmarkReliability> rel = m.reliability.get(pb.matches[k].id);
+    trusted[k] = (!rel || rel->ps < kTrustedMaxPs) && (!m.segmenter || (rel && rel->labelled > 0));
+  }
   std::vector<PoseObservation> obs(n);
   for (std::size_t k = 0; k < n; ++k) {
     const PoseMatch& a = pb.matches[k];
@@ -338,6 +353,7 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
     o.stereo = a.u_right >= 0;
     o.sigma_px = std::pow(pb.scale_factor, a.level);  // ORB-SLAM3's: 1 px at level 0
     o.alpha = m.params.huber ? 1.0 : m.reliability.alpha(a.id);
+    o.usable = m.params.huber || trusted[k];
   }
   PlanarPoseOptions opt;
   opt.huber = m.params.huber;
@@ -363,9 +379,9 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
       optimisePlanarPose(*m.mono, &*m.stereo, obs, WheelPrior{edge ? &*edge : nullptr, x_prev}, opt, &x);
 
   // Slip: the wheels claimed motion the robot did not make, so every static point disagrees with
-  // them and vision alone, started where the robot was, explains clearly more (the estimator's
-  // test, without its labels: ORB-SLAM3 has none yet in tracking). Among walkers the wheels side
-  // with the static points and keep the pose (looksLikeSlip).
+  // them and vision alone, started where the robot was, explains clearly more of the trusted
+  // points (the estimator's test). Among walkers the wheels side with the static points and keep
+  // the pose (looksLikeSlip).
   bool slip = false;
   double slip_from = from_anchor ? m.anchor.t : pb.t_previous;
   if (edge && m.params.slip_check) {
@@ -377,7 +393,14 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
     PlanarPoseResult rv = optimisePlanarPose(*m.mono, &*m.stereo, obs, WheelPrior{}, opt, &x_vision);
     // ORB-SLAM3's bar for a tracked frame (30 inliers), twice over, for vision to overrule the wheels.
     constexpr int kMinVision = 60;
-    const bool placed = rv.inliers >= kMinVision && rv.inliers >= 0.85 * static_cast<double>(n);
+    const auto countTrusted = [&](const std::vector<char>& inlier) {
+      int count = 0;
+      for (std::size_t k = 0; k < n; ++k) count += inlier[k] && trusted[k];
+      return count;
+    };
+    const int candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
+    const int vision_inliers = countTrusted(rv.inlier);
+    const bool placed = vision_inliers >= kMinVision && vision_inliers >= 0.85 * static_cast<double>(candidates);
     auto& track = m.vision_track;
     if (!track.empty() && track.back().t == pb.t) track.pop_back();  // the frame solved again
     while (!track.empty() && track.front().t < pb.t - Impl::kCreepStretch) track.pop_front();
@@ -392,9 +415,9 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
     e.wheels = &*delta;
     e.T_b0_b1_fused = SE2::fromVector(x_prev).inverse() * SE2::fromVector(x);
     e.T_b0_b1_vision = SE2::fromVector(x_prev).inverse() * SE2::fromVector(x_vision);
-    e.fused_inliers = r.inliers;
-    e.vision_inliers = rv.inliers;
-    e.candidates = static_cast<int>(n);
+    e.fused_inliers = countTrusted(r.inlier);
+    e.vision_inliers = vision_inliers;
+    e.candidates = candidates;
     e.strained = strained;
     e.creeping = creeping;
     e.was_slipping = m.slipping;
