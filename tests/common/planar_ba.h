@@ -10,21 +10,14 @@
 #include <random>
 #include <vector>
 
+#include "cameras.h"
 #include "rvwo/edges/se2_xyz_edge.h"
 #include "rvwo/edges/wheel_edge.h"
 
 namespace rvwo::test {
 
-// A forward-looking camera: camera z along body x, camera x along -body y, pitched down 0.1 rad,
-// mounted 0.2 m ahead, 0.05 m left and 0.3 m up.
-inline Eigen::Isometry3d forwardCamera() {
-  Eigen::Matrix3d R_b_c;
-  R_b_c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
-  T_b_c.linear() = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix() * R_b_c;
-  T_b_c.translation() << 0.2, 0.05, 0.3;
-  return T_b_c;
-}
+// A forward-looking camera pitched down 0.1 rad, mounted 0.2 m ahead, 0.05 m left and 0.3 m up.
+inline Eigen::Isometry3d forwardCamera() { return lookingAhead(0.1, Eigen::Vector3d(0.2, 0.05, 0.3)); }
 
 struct Observation {
   int pose, point;

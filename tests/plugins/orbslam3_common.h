@@ -6,19 +6,14 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "../common/cameras.h"
 #include "rvwo/edges/se2.h"
 
 namespace rvwo::test {
 
-// Looking ahead (camera z along body x), pitched down 5 deg, 0.25 m ahead, 0.4 m up, 3 cm left.
-inline Eigen::Isometry3d tiltedCamera() {
-  Eigen::Matrix3d R;
-  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = R * Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  T.translation() << 0.25, 0.03, 0.4;
-  return T;
-}
+// Looking ahead, pitched up 5 deg (the tests always had it so; their comment said down), 0.25 m
+// ahead, 3 cm left, 0.4 m up.
+inline Eigen::Isometry3d tiltedCamera() { return lookingAhead(-5 * M_PI / 180, Eigen::Vector3d(0.25, 0.03, 0.4)); }
 
 // T_c_w in ORB-SLAM3's world of the camera on a robot at x_w_b.
 inline Eigen::Isometry3d cameraPose(const SE2& x_w_b, const Eigen::Isometry3d& T_b_c) {

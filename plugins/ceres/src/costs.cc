@@ -1,6 +1,8 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 #include "rvwo/ceres/costs.h"
 
+#include <ceres/normal_prior.h>
+
 #include <Eigen/Cholesky>
 
 namespace rvwo::ceres_adapters {
@@ -58,6 +60,15 @@ bool WheelCalibratedCost::Evaluate(double const* const* parameters, double* resi
     if (want[k]) Eigen::Map<RowMajor>{jacobians[k]} = S * J[k];
   }
   return true;
+}
+
+void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
+                               const Eigen::Vector3d& step, const Eigen::Vector3d& c_before) {
+  problem->AddResidualBlock(
+      new ceres::NormalPrior(ceres::Matrix(sigma.cwiseInverse().asDiagonal()), ceres::Vector(Eigen::Vector3d::Zero())),
+      nullptr, c);
+  problem->AddResidualBlock(
+      new ceres::NormalPrior(ceres::Matrix(step.cwiseInverse().asDiagonal()), ceres::Vector(c_before)), nullptr, c);
 }
 
 }  // namespace rvwo::ceres_adapters

@@ -2,7 +2,6 @@
 #include "rvwo/estimator/estimator.h"
 
 #include <ceres/ceres.h>
-#include <ceres/normal_prior.h>
 
 #include <algorithm>
 #include <atomic>
@@ -1205,8 +1204,8 @@ struct Estimator::Impl {
     ceres::Problem problem(po);
     std::vector<ceres::ResidualBlockId> blocks(obs.size(), nullptr);
     auto loss = [&](double a, bool stereo) -> ceres::LossFunction* {
-      if (opt.kernel == KernelChoice::kHuber) return new ceres::HuberLoss(std::sqrt(chi2Gate(stereo)));
-      return new ceres_adapters::BarronLoss(a, opt.barron_scale * std::sqrt(chi2Gate(stereo)));
+      return ceres_adapters::reprojectionLoss(opt.kernel == KernelChoice::kHuber, a, opt.barron_scale,
+                                              chi2Gate(stereo));
     };
     auto cost = [&](const Obs& o) -> ceres::CostFunction* {
       const Eigen::Vector3d &xk = x[o.kf], &Pk = P[o.point];
@@ -1279,12 +1278,8 @@ struct Estimator::Impl {
       }
     }
     if (calibrate && problem.HasParameterBlock(c.data())) {
-      problem.AddResidualBlock(new ceres::NormalPrior(ceres::Matrix(opt.calibration_sigma.cwiseInverse().asDiagonal()),
-                                                      ceres::Vector(Eigen::Vector3d::Zero())),
-                               nullptr, c.data());
-      problem.AddResidualBlock(new ceres::NormalPrior(ceres::Matrix(opt.calibration_step.cwiseInverse().asDiagonal()),
-                                                      ceres::Vector(c_before)),
-                               nullptr, c.data());
+      ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), opt.calibration_sigma, opt.calibration_step,
+                                                c_before);
       // Mono has no metric but the wheels': scaling the window's map and the wheels' distance
       // scale together changes no residual, so that scale is left as it is (the turn scale and the
       // curvature are angles vision sees). Left free, it drifted to 0.976-0.994 over the mono suite

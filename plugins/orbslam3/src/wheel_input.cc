@@ -2,7 +2,6 @@
 #include "rvwo/orbslam3/wheel_input.h"
 
 #include <ceres/ceres.h>
-#include <ceres/normal_prior.h>
 
 #include <algorithm>
 #include <chrono>
@@ -295,7 +294,7 @@ void WheelInput::frameTracked(double t, bool visual, int features) {
   // are held fixed there, or seen again after a loop: their wheel edges would span minutes).
   // Memory stays bounded: at most a minute of readings.
   constexpr double kKeepForLocalMap = 20.0;  // s
-  const double keep = std::min({t - kKeepForLocalMap, m.anchor.set ? m.anchor.t - 1.0 : t});
+  const double keep = m.anchor.set ? std::min(t - kKeepForLocalMap, m.anchor.t - 1.0) : t - kKeepForLocalMap;
   m.odometry.dropBefore(std::max(t - 60.0, keep));
   while (!m.slipped.empty() && m.slipped.front().second < t - 60.0) m.slipped.pop_front();
   if (visual) {
@@ -538,8 +537,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     const bool is_stereo = o.u_right >= 0;
     const double gate = chi2Gate(is_stereo);
     ceres::LossFunction* loss =
-        m.params.huber ? static_cast<ceres::LossFunction*>(new ceres::HuberLoss(std::sqrt(gate)))
-                       : new ceres_adapters::BarronLoss(alpha[o.point], m.params.barron_scale * std::sqrt(gate));
+        ceres_adapters::reprojectionLoss(m.params.huber, alpha[o.point], m.params.barron_scale, gate);
     ceres::CostFunction* cost =
         is_stereo ? static_cast<ceres::CostFunction*>(
                         new ceres_adapters::Se2XyzCost<3>(stereo, Eigen::Vector3d(o.u, o.v, o.u_right),
@@ -571,16 +569,9 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     } catch (const std::invalid_argument&) {  // degenerate covariance: no edge
     }
   }
-  if (!calibrating.empty()) {
-    problem.AddResidualBlock(
-        new ceres::NormalPrior(ceres::Matrix(m.params.calibration_sigma.cwiseInverse().asDiagonal()),
-                               ceres::Vector(Eigen::Vector3d::Zero())),
-        nullptr, c.data());
-    problem.AddResidualBlock(
-        new ceres::NormalPrior(ceres::Matrix(m.params.calibration_step.cwiseInverse().asDiagonal()),
-                               ceres::Vector(c_before)),
-        nullptr, c.data());
-  }
+  if (!calibrating.empty())
+    ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), m.params.calibration_sigma, m.params.calibration_step,
+                                              c_before);
   bool held = false;
   for (std::size_t k = 0; k < nk; ++k) {
     if (!problem.HasParameterBlock(x[k].data())) continue;

@@ -16,6 +16,7 @@
 #include <ceres/iteration_callback.h>
 #include <ceres/loss_function.h>
 
+#include <cmath>
 #include <functional>
 #include <utility>
 #include <vector>
@@ -36,6 +37,14 @@ class BarronLoss final : public ceres::LossFunction {
  private:
   BarronKernel kernel_;
 };
+
+// The loss of one reprojection residual in a planar BA: Huber at the root of the chi2 gate
+// (ORB-SLAM's kernel), or the landmark's adaptive Barron kernel (eq. 7) of shape alpha and scale
+// barron_scale times that root. The caller owns it (or hands it to a ceres::Problem).
+inline ceres::LossFunction* reprojectionLoss(bool huber, double alpha, double barron_scale, double chi2_gate) {
+  if (huber) return new ceres::HuberLoss(std::sqrt(chi2_gate));
+  return new BarronLoss(alpha, barron_scale * std::sqrt(chi2_gate));
+}
 
 // Calls refresh(loss) for every registered loss at the end of each iteration, so that alphas
 // follow the reliability model while the solver runs. Add it to Solver::Options::callbacks and

@@ -12,6 +12,7 @@
 // that are not in front of the camera at the start.
 #pragma once
 
+#include <ceres/problem.h>
 #include <ceres/sized_cost_function.h>
 
 #include <Eigen/Core>
@@ -58,5 +59,11 @@ class WheelCalibratedCost final : public ceres::SizedCostFunction<3, 3, 3, 3> {
  private:
   WheelEdge edge_;
 };
+
+// The priors of the odometry's calibration c[3] (WheelCalibratedCost's third block) in a BA: one
+// around zero (sigma: distance scale, turn scale, curvature in rad/m), one around the estimate
+// before this BA (step), so that each BA refines what the ones before found.
+void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
+                               const Eigen::Vector3d& step, const Eigen::Vector3d& c_before);
 
 }  // namespace rvwo::ceres_adapters
