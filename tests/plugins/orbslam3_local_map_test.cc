@@ -1,15 +1,19 @@
 // Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
 // The local map on SE(2) (rvwo/orbslam3/local_map.h) on stand-ins for ORB-SLAM3's KeyFrame,
 // MapPoint and Map with the members it uses: which keyframes it frees and fixes, what it
-// recovers, what it erases and writes back.
+// recovers, what it erases and writes back. And vision finding the old map after a blackout
+// (rvwo/orbslam3/reacquire.h, pose.h) on stand-ins for Frame and ORBmatcher.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <opencv2/core/types.hpp>
+#include <optional>
 #include <random>
+#include <set>
 #include <thread>
 #include <tuple>
 #include <vector>
@@ -17,6 +21,8 @@
 #include "orbslam3_common.h"
 #include "rvwo/edges/se2.h"
 #include "rvwo/orbslam3/local_map.h"
+#include "rvwo/orbslam3/pose.h"
+#include "rvwo/orbslam3/reacquire.h"
 
 namespace {
 
@@ -52,6 +58,9 @@ struct KeyFrame {
   Pose pose, mTcwGBA;
   std::vector<MapPoint*> GetMapPointMatches() const { return matches; }
   std::vector<KeyFrame*> GetVectorCovisibleKeyFrames() const { return covisible; }
+  std::vector<KeyFrame*> GetBestCovisibilityKeyFrames(int n) const {
+    return {covisible.begin(), covisible.begin() + std::min<std::size_t>(covisible.size(), n)};
+  }
   bool isBad() const { return false; }
   Map* GetMap() const { return map; }
   Pose GetPose() const { return pose; }
@@ -63,6 +72,7 @@ struct KeyFrame {
 };
 
 struct MapPoint {
+  inline static std::mutex mGlobalMutex;
   unsigned long mnId = 0, mnBALocalForKF = 0, mnBAGlobalForKF = 0;
   Eigen::Vector3f P = Eigen::Vector3f::Zero(), mPosGBA = Eigen::Vector3f::Zero();
   std::map<KeyFrame*, std::tuple<int, int>> observations;
@@ -319,7 +329,9 @@ TEST(WheelInputGlobalMap, AfterALoopTheWholeMapGoesToTheGbaFieldsOrIntoTheMap) {
       const KeyFrame& kf = *scene.kfs[k];
       EXPECT_EQ(kf.mnBAGlobalForKF, into_map ? 0ul : loop_kf);
       // For a loop, the map stays as it was until the loop closer applies the result.
-      if (!into_map) EXPECT_EQ((kf.pose.t - before[k].t).norm(), 0.0f) << k;
+      if (!into_map) {
+        EXPECT_EQ((kf.pose.t - before[k].t).norm(), 0.0f) << k;
+      }
       double off_plane = 1;
       const rvwo::SE2 e =
           drive(0.1 * k).inverse() * robotOfPose(into_map ? kf.pose : kf.mTcwGBA, scene.T_b_c, &off_plane);
@@ -388,6 +400,220 @@ TEST(WheelInputLocalMap, MonocularLeavesItToOrbSlam3) {
   EXPECT_FALSE(scene.wheels.optimisesLocalMaps());
   EXPECT_FALSE(rvwo::orbslam3::optimiseLocalMap(scene.wheels, scene.kfs.back().get(), &stop, &scene.map));
   EXPECT_FALSE(rvwo::orbslam3::optimiseGlobalMap(scene.wheels, &scene.map, &stop, 11));
+}
+
+// ---- vision back after a blackout: the old map found from the wheels' pose (reacquire.h)
+
+// As ORB-SLAM3's Frame, with the members optimisePose and reacquire use. A feature's descriptor
+// is the id of the point it shows (0: none of the map's).
+struct Frame {
+  inline static float fx = 400, fy = 400, cx = 319.5f, cy = 239.5f;
+  double mTimeStamp = 0;
+  float mbf = 48, mfScaleFactor = 1.2f;
+  const void* mpCamera2 = nullptr;
+  int N = 0;
+  std::vector<cv::KeyPoint> mvKeysUn;
+  std::vector<float> mvuRight;
+  std::vector<MapPoint*> mvpMapPoints;
+  std::vector<bool> mvbOutlier;
+  std::vector<unsigned long> descriptor;
+  std::vector<char> misplaced;  // 8 to 12 px off its point along the row: a wrong match the window lets in
+  Pose pose;
+  bool has_pose = false;
+  Pose GetPose() const { return pose; }
+  void SetPose(const Pose& p) {
+    pose = p;
+    has_pose = true;
+  }
+  bool HasPose() const { return has_pose; }
+};
+
+// As ORBmatcher::SearchByProjection(Frame&, KeyFrame*, found, th, ORBdist), relocalisation's:
+// each of the keyframe's points not found yet, projected from the frame's pose, takes the first
+// free feature with its descriptor within th px (times its level's scale).
+struct Matcher {
+  Matcher(float, bool) {}
+  int SearchByProjection(Frame& f, KeyFrame* kf, const std::set<MapPoint*>& found, float th, int) const {
+    const Eigen::Isometry3d T_c_w = rvwo::orbslam3::isometryOf(f.GetPose());
+    int n = 0;
+    for (MapPoint* mp : kf->matches) {
+      if (!mp || found.count(mp)) continue;
+      const Eigen::Vector3d P_c = T_c_w * mp->P.cast<double>();
+      if (P_c.z() < 0.1) continue;
+      const double u = Frame::fx * P_c.x() / P_c.z() + Frame::cx, v = Frame::fy * P_c.y() / P_c.z() + Frame::cy;
+      for (int i = 0; i < f.N; ++i) {
+        if (f.mvpMapPoints[i] || f.descriptor[i] != mp->mnId) continue;
+        if (std::hypot(f.mvKeysUn[i].pt.x - u, f.mvKeysUn[i].pt.y - v) > th * std::pow(1.2, f.mvKeysUn[i].octave))
+          continue;
+        f.mvpMapPoints[i] = mp;
+        ++n;
+        break;
+      }
+    }
+    return n;
+  }
+};
+
+// A turning drive; the wheels claim 2 % more distance and 1.5 deg more turn over 4 s.
+rvwo::SE2 curve(double t) { return rvwo::SE2(0.3 * t, 0.03 * t * t, 0.1 * t); }
+rvwo::SE2 curveClaimed(double t) {
+  const rvwo::SE2 x = curve(t);
+  return rvwo::SE2(1.02 * x.translation().x(), 1.02 * x.translation().y(), x.angle() + 0.0065 * t);
+}
+
+// Vision last placed a frame at 0 s (keyframe `reference`, with a covisible one from -0.3 s);
+// the lens was covered until 4 s, the wheels carried the frames. 400 points 3 to 7 m ahead.
+struct Blackout {
+  Eigen::Isometry3d T_b_c = tiltedCamera();
+  WheelInput wheels;
+  KeyFrame reference, covisible;
+  std::vector<std::unique_ptr<MapPoint>> mps;
+  Frame last, frame;
+  Eigen::Isometry3d T_c_w_wheels;  // where the wheels put the frame at 4 s
+
+  Blackout() {
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> x(3, 7), y(-2.5, 3.5), z(0.1, 1.5), coin(0, 1), off(8, 12);
+    std::normal_distribution<double> g(0, 0.5);
+    WheelInputParams p;
+    p.T_b_c = T_b_c;
+    wheels.configure(p);
+    std::vector<WheelReading> readings;
+    for (int k = -40; k <= 420; ++k) {
+      const rvwo::SE2 c = curveClaimed(0.01 * k);
+      readings.push_back(WheelReading::pose(0.01 * k, c.translation().x(), c.translation().y(), c.angle()));
+    }
+    wheels.add(readings);
+    reference.pose = rvwo::orbslam3::poseOf<Pose>(cameraPose(curve(0), T_b_c));
+    covisible.pose = rvwo::orbslam3::poseOf<Pose>(cameraPose(curve(-0.3), T_b_c));
+    covisible.mTimeStamp = -0.3;
+    reference.covisible = {&covisible};
+    const Eigen::Isometry3d T_c4_w = cameraPose(curve(4.0), T_b_c);
+    frame.mTimeStamp = 4.0;
+    for (int i = 0; i < 400; ++i) {
+      mps.push_back(std::make_unique<MapPoint>());
+      MapPoint& mp = *mps.back();
+      mp.mnId = static_cast<unsigned long>(1 + i);
+      mp.P = (T_b_c.inverse() * Eigen::Vector3d(x(rng), y(rng), z(rng))).cast<float>();  // ORB-SLAM3's world
+      KeyFrame& kf = i % 2 ? covisible : reference;
+      if (!project(rvwo::orbslam3::isometryOf(kf.pose), mp.P.cast<double>())) continue;
+      kf.matches.push_back(&mp);
+      const std::optional<Eigen::Vector3d> P_c = project(T_c4_w, mp.P.cast<double>());
+      if (!P_c) continue;
+      cv::KeyPoint kp;
+      kp.octave = i % 3;
+      const double s = std::pow(1.2, kp.octave), u = 400 * P_c->x() / P_c->z() + 319.5;
+      const bool misplaced = coin(rng) < 0.05;
+      // Along the row: the out-of-plane noise (eq. 10) widens the vertical error by the
+      // robot's pitch, so that a wrong match 10 px up or down can pass the gate.
+      const double d = misplaced ? (coin(rng) < 0.5 ? -off(rng) : off(rng)) : 0.0;
+      kp.pt.x = static_cast<float>(u + s * g(rng) + d);
+      kp.pt.y = static_cast<float>(400 * P_c->y() / P_c->z() + 239.5 + s * g(rng));
+      frame.mvKeysUn.push_back(kp);
+      frame.mvuRight.push_back(kp.pt.x - static_cast<float>(48 / P_c->z()));
+      frame.descriptor.push_back(mp.mnId);
+      frame.misplaced.push_back(misplaced);
+    }
+    for (int i = 0; i < 50; ++i) {  // features of nothing in the map
+      cv::KeyPoint kp;
+      kp.pt = cv::Point2f(static_cast<float>(640 * coin(rng)), static_cast<float>(480 * coin(rng)));
+      frame.mvKeysUn.push_back(kp);
+      frame.mvuRight.push_back(-1);
+      frame.descriptor.push_back(0);
+      frame.misplaced.push_back(0);
+    }
+    frame.N = static_cast<int>(frame.mvKeysUn.size());
+    frame.mvpMapPoints.assign(frame.N, nullptr);
+    frame.mvbOutlier.assign(frame.N, false);
+
+    // The last frame vision placed (0 s, the reference keyframe's view), then 39 on the wheels.
+    Frame first;
+    first.SetPose(reference.pose);
+    for (MapPoint* mp : reference.matches) {
+      const Eigen::Vector3d P_c = *project(rvwo::orbslam3::isometryOf(reference.pose), mp->P.cast<double>());
+      cv::KeyPoint kp;
+      kp.pt = cv::Point2f(static_cast<float>(400 * P_c.x() / P_c.z() + 319.5),
+                          static_cast<float>(400 * P_c.y() / P_c.z() + 239.5));
+      first.mvKeysUn.push_back(kp);
+      first.mvuRight.push_back(kp.pt.x - static_cast<float>(48 / P_c.z()));
+      first.mvpMapPoints.push_back(mp);
+    }
+    first.N = static_cast<int>(first.mvKeysUn.size());
+    first.mvbOutlier.assign(first.N, false);
+    EXPECT_GE(rvwo::orbslam3::optimisePose(wheels, first, Frame(), upstream), 100);
+    wheels.frameTracked(0.0, true, first.N);
+    for (int k = 1; k < 40; ++k) wheels.frameTracked(0.1 * k, false, 0);
+    last.mTimeStamp = 3.9;
+    last.SetPose(rvwo::orbslam3::poseOf<Pose>(wheels.predict(rvwo::orbslam3::isometryOf(first.pose), 0.0, 3.9)));
+    T_c_w_wheels = wheels.predict(rvwo::orbslam3::isometryOf(last.pose), 3.9, 4.0);
+  }
+
+  // P_c when the camera T_c_w sees P_w (in the image, 0.5 m or more ahead).
+  static std::optional<Eigen::Vector3d> project(const Eigen::Isometry3d& T_c_w, const Eigen::Vector3d& P_w) {
+    const Eigen::Vector3d P_c = T_c_w * P_w;
+    const double u = 400 * P_c.x() / P_c.z() + 319.5, v = 400 * P_c.y() / P_c.z() + 239.5;
+    if (P_c.z() < 0.5 || u < 0 || u > 640 || v < 0 || v > 480) return std::nullopt;
+    return P_c;
+  }
+  static int upstream(Frame*) {
+    ADD_FAILURE() << "ORB-SLAM3's 6-DoF pose optimisation called for a stereo frame";
+    return 0;
+  }
+  bool reacquire(const rvwo::orbslam3::ReacquireParams& params = {}) {
+    return rvwo::orbslam3::reacquire<Matcher>(
+        frame, &reference, rvwo::orbslam3::poseOf<Pose>(T_c_w_wheels),
+        [this] { return rvwo::orbslam3::optimisePose(wheels, frame, last, upstream); }, params);
+  }
+  int matched() const {
+    return static_cast<int>(
+        std::count_if(frame.mvpMapPoints.begin(), frame.mvpMapPoints.end(), [](MapPoint* mp) { return mp; }));
+  }
+};
+
+TEST(Reacquire, FindsTheOldMapFromTheWheelsPoseAndDropsWrongMatches) {
+  Blackout b;
+  double off_plane = 1;
+  const rvwo::SE2 truth = curve(4.0);
+  const rvwo::SE2 wheels = rvwo::test::robotOf(b.T_c_w_wheels, b.T_b_c, &off_plane);
+  // The premise: the wheels' drift is far beyond what tracking searches (1 to 3 px).
+  ASSERT_GT((wheels.translation() - truth.translation()).norm(), 0.02);
+  ASSERT_GT(std::fabs(rvwo::wrapAngle(wheels.angle() - truth.angle())), 0.02);
+
+  ASSERT_TRUE(b.reacquire());
+  const rvwo::SE2 x = robotOfPose(b.frame.pose, b.T_b_c, &off_plane);
+  EXPECT_LT((x.translation() - truth.translation()).norm(), 0.005);
+  EXPECT_LT(std::fabs(rvwo::wrapAngle(x.angle() - truth.angle())), 1e-3);
+  EXPECT_LT(off_plane, 1e-5);
+  int good = 0, good_matched = 0;
+  for (int i = 0; i < b.frame.N; ++i) {
+    EXPECT_FALSE(b.frame.mvbOutlier[i]);
+    if (b.frame.misplaced[i]) {
+      EXPECT_EQ(b.frame.mvpMapPoints[i], nullptr) << "a wrong match kept, feature " << i;
+    }
+    if (b.frame.misplaced[i] || !b.frame.descriptor[i]) continue;
+    ++good;
+    good_matched += b.frame.mvpMapPoints[i] != nullptr;
+  }
+  EXPECT_GT(good, 100);
+  EXPECT_GE(good_matched, 0.9 * good);
+}
+
+TEST(Reacquire, WithoutEnoughMatchesTheFrameStaysOnTheWheelsWithWhatItHad) {
+  for (const int attempt : {0, 1, 2}) {
+    Blackout b;
+    b.frame.mvpMapPoints[0] = b.mps[0].get();  // what failed tracking left
+    rvwo::orbslam3::ReacquireParams params;
+    if (attempt == 0) params.window = 2;          // tracking's window: the drift is beyond it
+    if (attempt == 1) params.min_inliers = 1000;  // fewer inliers than asked for
+    const bool found = attempt == 2 ? rvwo::orbslam3::reacquire<Matcher>(b.frame, static_cast<KeyFrame*>(nullptr),
+                                                                         rvwo::orbslam3::poseOf<Pose>(b.T_c_w_wheels),
+                                                                         [] { return 1000; })
+                                    : b.reacquire(params);
+    EXPECT_FALSE(found) << attempt;
+    EXPECT_EQ(b.matched(), 1) << attempt;
+    EXPECT_EQ(b.frame.mvpMapPoints[0], b.mps[0].get()) << attempt;
+    EXPECT_TRUE(rvwo::orbslam3::isometryOf(b.frame.pose).isApprox(b.T_c_w_wheels, 1e-6)) << attempt;
+  }
 }
 
 }  // namespace

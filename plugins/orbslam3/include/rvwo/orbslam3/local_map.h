@@ -27,25 +27,11 @@
 #include <utility>
 #include <vector>
 
+#include "rvwo/orbslam3/se3.h"
 #include "rvwo/orbslam3/wheel_input.h"
 
 namespace rvwo {
 namespace orbslam3 {
-
-template <class PoseT>
-Eigen::Isometry3d isometryOf(const PoseT& T) {
-  Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
-  I.linear() = T.rotationMatrix().template cast<double>();
-  I.translation() = T.translation().template cast<double>();
-  return I;
-}
-
-// Through a normalised quaternion: Sophus checks that the rotation is one in float.
-template <class PoseT>
-PoseT poseOf(const Eigen::Isometry3d& T) {
-  return PoseT(Eigen::Quaternionf(Eigen::Quaterniond(T.linear()).normalized().cast<float>()),
-               Eigen::Vector3f(T.translation().cast<float>()));
-}
 
 namespace detail {
 

@@ -4,7 +4,7 @@
 // 6-DoF Optimizer::PoseOptimization, with the same contract: it reads the frame's matches
 // (mvpMapPoints), writes its pose and mvbOutlier, and returns the inliers. Included by the
 // patched Tracking.cc (C++11); templated on ORB-SLAM3's Frame so that no ORB-SLAM3 header is
-// needed here. Falls back to `upstream` (Optimizer::PoseOptimization) for a monocular system, a
+// needed here (nor Sophus: se3.h). Falls back to `upstream` (Optimizer::PoseOptimization) for a monocular system, a
 // two-camera (fisheye) rig, or fewer than 3 matches.
 #pragma once
 
@@ -13,7 +13,8 @@
 #include <type_traits>
 #include <vector>
 
-#include "rvwo/orbslam3/sophus.h"
+#include "rvwo/orbslam3/se3.h"
+#include "rvwo/orbslam3/wheel_input.h"
 
 namespace rvwo {
 namespace orbslam3 {
@@ -23,10 +24,10 @@ int optimisePose(WheelInput& wheels, FrameT& frame, const FrameT& last, int (*up
   if (!wheels.optimisesPoses() || frame.mpCamera2) return upstream(&frame);
   PoseProblem p;
   p.t = frame.mTimeStamp;
-  p.T_c_w = toIsometry(frame.GetPose());
+  p.T_c_w = isometryOf(frame.GetPose());
   p.has_previous = last.HasPose();
   p.t_previous = last.mTimeStamp;
-  p.T_cp_w = p.has_previous ? toIsometry(last.GetPose()) : Eigen::Isometry3d::Identity();
+  p.T_cp_w = p.has_previous ? isometryOf(last.GetPose()) : Eigen::Isometry3d::Identity();
   p.fx = FrameT::fx;
   p.fy = FrameT::fy;
   p.cx = FrameT::cx;
@@ -54,7 +55,7 @@ int optimisePose(WheelInput& wheels, FrameT& frame, const FrameT& last, int (*up
   }
   PoseSolution s;
   if (!wheels.optimisePose(p, &s)) return upstream(&frame);
-  frame.SetPose(toSophus(s.T_c_w));
+  frame.SetPose(poseOf<typename std::decay<decltype(frame.GetPose())>::type>(s.T_c_w));
   for (std::size_t k = 0; k < index.size(); ++k) frame.mvbOutlier[index[k]] = s.outlier[k] != 0;
   return s.inliers;
 }

@@ -6,27 +6,15 @@
 
 #include <sophus/se3.hpp>
 
+#include "rvwo/orbslam3/se3.h"
 #include "rvwo/orbslam3/wheel_input.h"
 
 namespace rvwo {
 namespace orbslam3 {
 
-inline Eigen::Isometry3d toIsometry(const Sophus::SE3f& T) {
-  Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
-  I.linear() = T.rotationMatrix().cast<double>();
-  I.translation() = T.translation().cast<double>();
-  return I;
-}
-
-inline Sophus::SE3f toSophus(const Eigen::Isometry3d& T) {
-  // Through a normalised quaternion: Sophus checks that the rotation is one in float.
-  return Sophus::SE3f(Eigen::Quaternionf(Eigen::Quaterniond(T.linear()).normalized().cast<float>()),
-                      T.translation().cast<float>());
-}
-
 // T_cj_w of the frame at tj from T_ci_w of the frame at ti.
 inline Sophus::SE3f predict(const WheelInput& wheels, const Sophus::SE3f& T_ci_w, double ti, double tj) {
-  return toSophus(wheels.predict(toIsometry(T_ci_w), ti, tj));
+  return poseOf<Sophus::SE3f>(wheels.predict(isometryOf(T_ci_w), ti, tj));
 }
 
 }  // namespace orbslam3
