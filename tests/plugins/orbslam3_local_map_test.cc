@@ -345,6 +345,20 @@ TEST(WheelInputGlobalMap, AfterALoopTheWholeMapGoesToTheGbaFieldsOrIntoTheMap) {
   }
 }
 
+TEST(WheelInputGlobalMap, AKeyframeNothingPlacesFollowsItsParent) {
+  // The blind keyframe stamped beyond the readings (made on the wheels in a blackout, older than
+  // the readings kept): nothing in the problem places it. Left unmarked, the loop closer moves it
+  // with its parent in the spanning tree; marked, it would keep its old pose as its neighbours
+  // moved. The fixed origin is marked: the loop closer applies every origin's result.
+  Scene scene(6);
+  scene.perturb(7);
+  scene.kfs[Scene::kBlind]->mTimeStamp = 5.0;
+  bool stop = false;
+  ASSERT_TRUE(rvwo::orbslam3::optimiseGlobalMap(scene.wheels, &scene.map, &stop, 11));
+  for (int k = 0; k < Scene::kKeyFrames; ++k)
+    EXPECT_EQ(scene.kfs[k]->mnBAGlobalForKF, k == Scene::kBlind ? 0ul : 11ul) << k;
+}
+
 TEST(WheelInputLocalMap, ConcurrentWithTracking) {
   // ORB-SLAM3's local mapping thread solves local maps while tracking adds readings, predicts and
   // reports frames (run under ThreadSanitizer by scripts/test.sh).

@@ -120,6 +120,9 @@ TEST(WheelInput, KeyframesRestartTheMapWhileOnTheWheels) {
     const int features = k < 6 ? 0 : 800;  // lens covered until frame 6
     w.frameTracked(0.1 * k, visual, features);
     if (w.keyFrameNeeded()) asked.push_back(k);
+    // ORB-SLAM3's own wish stands, but for a frame on the wheels too blind for map points.
+    EXPECT_EQ(w.keyFrameWanted(true), visual || features >= 500) << k;
+    EXPECT_EQ(w.keyFrameWanted(false), w.keyFrameNeeded()) << k;
   }
   // On the wheels from frame 3 to 14: none while blind, then every 5th frame, none once visual.
   EXPECT_EQ(asked, (std::vector<int>{9, 14}));
@@ -139,6 +142,9 @@ TEST(WheelInput, KeyframesRestartTheMapWhileOnTheWheels) {
     m.frameTracked(0.1 * k, false, 800);
     EXPECT_FALSE(m.keyFrameNeeded());
   }
+  WheelInput inactive;  // upstream's behaviour
+  EXPECT_TRUE(inactive.keyFrameWanted(true));
+  EXPECT_FALSE(inactive.keyFrameWanted(false));
 }
 
 TEST(WheelInput, ReadsRvwoKeysFromTheSettings) {

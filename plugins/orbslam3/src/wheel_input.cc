@@ -63,6 +63,7 @@ struct WheelInput::Impl {
   std::size_t wheel_frames = 0;
   int run = 0;  // frames on the wheels in a row, this one included
   bool keyframe = false;
+  bool blind = false;  // the frame tracked last was on the wheels with fewer than min_features
   std::vector<std::pair<double, double>> intervals;
   // ---- pose optimisation
   ReliabilityManager reliability;  // per map point id: eq. 6 from its latest whitened error
@@ -297,6 +298,7 @@ void WheelInput::frameTracked(double t, bool visual, int features) {
   const double keep = m.anchor.set ? std::min(t - kKeepForLocalMap, m.anchor.t - 1.0) : t - kKeepForLocalMap;
   m.odometry.dropBefore(std::max(t - 60.0, keep));
   while (!m.slipped.empty() && m.slipped.front().second < t - 60.0) m.slipped.pop_front();
+  m.blind = !visual && features < m.params.min_features;
   if (visual) {
     m.run = 0;
     m.keyframe = false;
@@ -316,6 +318,12 @@ void WheelInput::frameTracked(double t, bool visual, int features) {
 }
 
 bool WheelInput::keyFrameNeeded() const { return impl_ && impl_->keyframe; }
+
+bool WheelInput::keyFrameWanted(bool orbslam3_needs) const {
+  if (!impl_) return orbslam3_needs;
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return (orbslam3_needs && !impl_->blind) || impl_->keyframe;
+}
 
 std::size_t WheelInput::wheelOnlyFrames() const { return impl_ ? impl_->wheel_frames : 0; }
 
@@ -475,6 +483,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   const std::size_t nk = pb.keyframes.size(), np = pb.points.size(), no = pb.observations.size();
   out->T_c_w.resize(nk);
   out->P_w.resize(np);
+  out->placed.assign(nk, 0);
   out->solved.assign(np, 0);
   out->outlier.assign(no, 0);
   out->wheel_edges = 0;
@@ -633,7 +642,10 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   // What was not in the problem (no edge: a keyframe neither seeing nor reached by the wheels, a
   // rejected point) stays as given.
   for (std::size_t k = 0; k < nk; ++k)
-    if (!pb.keyframes[k].fixed && problem.HasParameterBlock(x[k].data())) out->T_c_w[k] = m.cameraOf(x[k]);
+    if (!pb.keyframes[k].fixed && problem.HasParameterBlock(x[k].data())) {
+      out->T_c_w[k] = m.cameraOf(x[k]);
+      out->placed[k] = 1;
+    }
   for (std::size_t i = 0; i < np; ++i)
     if (problem.HasParameterBlock(P[i].data())) {
       out->P_w[i] = T_c0_w * P[i];

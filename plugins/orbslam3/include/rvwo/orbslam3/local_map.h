@@ -144,9 +144,9 @@ bool optimiseLocalMap(WheelInput& wheels, KeyFrameT* keyframe, bool* stop, MapT*
 // The whole map on SE(2) after a loop closed (WheelInput::optimiseLocalMap over every keyframe,
 // the map's first fixed), in place of ORB-SLAM3's Optimizer::GlobalBundleAdjustemnt, with its
 // contract: for the loop of keyframe loop_kf, results go to mTcwGBA and mPosGBA (marked
-// mnBAGlobalForKF = loop_kf; points left out, rejected ones among them, are not marked and follow
-// their reference keyframe's correction), or straight into the map when loop_kf is the map's
-// origin keyframe. Nothing is erased. False, having done nothing, as optimiseLocalMap.
+// mnBAGlobalForKF = loop_kf; keyframes and points left out, rejected points among them, are not
+// marked and follow their parent's or reference keyframe's correction), or straight into the map when loop_kf is the
+// map's origin keyframe. Nothing is erased. False, having done nothing, as optimiseLocalMap.
 template <class MapT>
 bool optimiseGlobalMap(WheelInput& wheels, MapT* map, bool* stop, unsigned long loop_kf) {
   typedef typename std::remove_pointer<typename std::decay<decltype(map->GetAllKeyFrames()[0])>::type>::type KeyFrameT;
@@ -169,6 +169,11 @@ bool optimiseGlobalMap(WheelInput& wheels, MapT* map, bool* stop, unsigned long 
   if (!wheels.optimiseLocalMap(problem, &solution, stop)) return false;
   const bool into_map = loop_kf == map->GetOriginKF()->mnId;
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    // A free keyframe the problem could not place (it sees no point and no wheel edge reaches it,
+    // e.g. its readings are older than those kept) is left unmarked: the loop closer then moves
+    // it with its parent in the spanning tree, as it moves a keyframe made during the global BA.
+    // Marked, it would keep its old pose while the map around it moved.
+    if (!solution.placed[k] && !problem.keyframes[k].fixed) continue;
     const PoseT T = poseOf<PoseT>(solution.T_c_w[k]);
     if (into_map) {
       keyframes[k]->SetPose(T);

@@ -145,6 +145,7 @@ struct LocalMapProblem {
 };
 struct LocalMapSolution {
   std::vector<Eigen::Isometry3d> T_c_w;  // per keyframe (fixed ones as given)
+  std::vector<char> placed;              // per keyframe: free and in the problem (seen, or on a wheel edge)
   std::vector<Eigen::Vector3d> P_w;      // per point
   std::vector<char> solved;              // per point: in the problem (not rejected, seen)
   std::vector<char> outlier;             // per observation: beyond the chi2 gate, or behind the camera
@@ -186,6 +187,11 @@ class WheelInput {
   void frameTracked(double t, bool visual, int features);
   // Whether the frame just tracked should become a keyframe to restart the map from the wheels.
   bool keyFrameNeeded() const;
+  // Whether the frame just tracked becomes a keyframe, given ORB-SLAM3's wish (NeedNewKeyFrame,
+  // from the inliers it counted last): its wish, unless the wheels carried this frame with too
+  // few features for map points; or keyFrameNeeded(). A keyframe that sees nothing has no parent
+  // in the spanning tree, so no loop correction or global BA ever moves it, nor the frames on it.
+  bool keyFrameWanted(bool orbslam3_needs) const;
   std::size_t wheelOnlyFrames() const;
   // [first, last] frame time of each stretch on the wheels.
   std::vector<std::pair<double, double> > wheelOnlyIntervals() const;
