@@ -418,12 +418,14 @@ TEST(WheelInputLocalMap, MonocularLeavesItToOrbSlam3) {
 
 // ---- vision back after a blackout: the old map found from the wheels' pose (reacquire.h)
 
+constexpr double kBf = 48;  // the stand-in frames' stereo baseline times fx [px m]
+
 // As ORB-SLAM3's Frame, with the members optimisePose and reacquire use. A feature's descriptor
 // is the id of the point it shows (0: none of the map's).
 struct Frame {
   inline static float fx = 400, fy = 400, cx = 319.5f, cy = 239.5f;
   double mTimeStamp = 0;
-  float mbf = 48, mfScaleFactor = 1.2f;
+  float mbf = static_cast<float>(kBf), mfScaleFactor = 1.2f;
   const void* mpCamera2 = nullptr;
   int N = 0;
   std::vector<cv::KeyPoint> mvKeysUn;
@@ -442,6 +444,11 @@ struct Frame {
   bool HasPose() const { return has_pose; }
 };
 
+// Where the stand-in frames' camera sees P_c (in its frame).
+Eigen::Vector2d pixelOf(const Eigen::Vector3d& P_c) {
+  return {Frame::fx * P_c.x() / P_c.z() + Frame::cx, Frame::fy * P_c.y() / P_c.z() + Frame::cy};
+}
+
 // As ORBmatcher::SearchByProjection(Frame&, KeyFrame*, found, th, ORBdist), relocalisation's:
 // each of the keyframe's points not found yet, projected from the frame's pose, takes the first
 // free feature with its descriptor within th px (times its level's scale).
@@ -454,10 +461,11 @@ struct Matcher {
       if (!mp || found.count(mp)) continue;
       const Eigen::Vector3d P_c = T_c_w * mp->P.cast<double>();
       if (P_c.z() < 0.1) continue;
-      const double u = Frame::fx * P_c.x() / P_c.z() + Frame::cx, v = Frame::fy * P_c.y() / P_c.z() + Frame::cy;
+      const Eigen::Vector2d uv = pixelOf(P_c);
       for (int i = 0; i < f.N; ++i) {
         if (f.mvpMapPoints[i] || f.descriptor[i] != mp->mnId) continue;
-        if (std::hypot(f.mvKeysUn[i].pt.x - u, f.mvKeysUn[i].pt.y - v) > th * std::pow(1.2, f.mvKeysUn[i].octave))
+        if (std::hypot(f.mvKeysUn[i].pt.x - uv.x(), f.mvKeysUn[i].pt.y - uv.y()) >
+            th * std::pow(1.2, f.mvKeysUn[i].octave))
           continue;
         f.mvpMapPoints[i] = mp;
         ++n;
@@ -516,15 +524,16 @@ struct Blackout {
       if (!P_c) continue;
       cv::KeyPoint kp;
       kp.octave = i % 3;
-      const double s = std::pow(1.2, kp.octave), u = 400 * P_c->x() / P_c->z() + 319.5;
+      const double s = std::pow(1.2, kp.octave);
+      const Eigen::Vector2d uv = pixelOf(*P_c);
       const bool misplaced = coin(rng) < 0.05;
       // Along the row: the out-of-plane noise (eq. 10) widens the vertical error by the
       // robot's pitch, so that a wrong match 10 px up or down can pass the gate.
       const double d = misplaced ? (coin(rng) < 0.5 ? -off(rng) : off(rng)) : 0.0;
-      kp.pt.x = static_cast<float>(u + s * g(rng) + d);
-      kp.pt.y = static_cast<float>(400 * P_c->y() / P_c->z() + 239.5 + s * g(rng));
+      kp.pt.x = static_cast<float>(uv.x() + s * g(rng) + d);
+      kp.pt.y = static_cast<float>(uv.y() + s * g(rng));
       frame.mvKeysUn.push_back(kp);
-      frame.mvuRight.push_back(kp.pt.x - static_cast<float>(48 / P_c->z()));
+      frame.mvuRight.push_back(kp.pt.x - static_cast<float>(kBf / P_c->z()));
       frame.descriptor.push_back(mp.mnId);
       frame.misplaced.push_back(misplaced);
     }
@@ -546,10 +555,10 @@ struct Blackout {
     for (MapPoint* mp : reference.matches) {
       const Eigen::Vector3d P_c = *project(rvwo::orbslam3::isometryOf(reference.pose), mp->P.cast<double>());
       cv::KeyPoint kp;
-      kp.pt = cv::Point2f(static_cast<float>(400 * P_c.x() / P_c.z() + 319.5),
-                          static_cast<float>(400 * P_c.y() / P_c.z() + 239.5));
+      const Eigen::Vector2d uv = pixelOf(P_c);
+      kp.pt = cv::Point2f(static_cast<float>(uv.x()), static_cast<float>(uv.y()));
       first.mvKeysUn.push_back(kp);
-      first.mvuRight.push_back(kp.pt.x - static_cast<float>(48 / P_c.z()));
+      first.mvuRight.push_back(kp.pt.x - static_cast<float>(kBf / P_c.z()));
       first.mvpMapPoints.push_back(mp);
     }
     first.N = static_cast<int>(first.mvKeysUn.size());
@@ -565,8 +574,9 @@ struct Blackout {
   // P_c when the camera T_c_w sees P_w (in the image, 0.5 m or more ahead).
   static std::optional<Eigen::Vector3d> project(const Eigen::Isometry3d& T_c_w, const Eigen::Vector3d& P_w) {
     const Eigen::Vector3d P_c = T_c_w * P_w;
-    const double u = 400 * P_c.x() / P_c.z() + 319.5, v = 400 * P_c.y() / P_c.z() + 239.5;
-    if (P_c.z() < 0.5 || u < 0 || u > 640 || v < 0 || v > 480) return std::nullopt;
+    if (P_c.z() < 0.5) return std::nullopt;
+    const Eigen::Vector2d uv = pixelOf(P_c);
+    if (uv.x() < 0 || uv.x() > 640 || uv.y() < 0 || uv.y() > 480) return std::nullopt;
     return P_c;
   }
   static int upstream(Frame*) {
