@@ -1,15 +1,42 @@
 // Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
-// What the ORB-SLAM3 plugin's tests share: a camera on the robot, and the frames between ORB-SLAM3's
-// world (its first camera's frame) and the robot's plane, which lies T_b_c under it.
+// What the ORB-SLAM3 plugin's tests share: a camera on the robot, the frames between ORB-SLAM3's
+// world (its first camera's frame) and the robot's plane, which lies T_b_c under it, and
+// stand-ins for ORB-SLAM3's pose type and Map.
 #pragma once
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <mutex>
+#include <vector>
 
 #include "../common/cameras.h"
 #include "rvwo/edges/se2.h"
 
 namespace rvwo::test {
+
+// As Sophus::SE3f: read through rotationMatrix() and translation(), made from (q, t).
+struct Pose {
+  Pose() = default;
+  Pose(const Eigen::Quaternionf& q, const Eigen::Vector3f& t) : R(q.toRotationMatrix()), t(t) {}
+  Eigen::Matrix3f rotationMatrix() const { return R; }
+  Eigen::Vector3f translation() const { return t; }
+  Eigen::Matrix3f R = Eigen::Matrix3f::Identity();
+  Eigen::Vector3f t = Eigen::Vector3f::Zero();
+};
+
+// As ORB-SLAM3's Map, over a test's stand-ins for KeyFrame and MapPoint (its first keyframe: id 0).
+template <class KeyFrameT, class MapPointT>
+struct MapOf {
+  std::mutex mMutexMapUpdate;
+  int changes = 0;
+  std::vector<KeyFrameT*> keyframes;
+  std::vector<MapPointT*> points;
+  unsigned long GetInitKFid() const { return 0; }
+  void IncreaseChangeIndex() { ++changes; }
+  std::vector<KeyFrameT*> GetAllKeyFrames() const { return keyframes; }
+  std::vector<MapPointT*> GetAllMapPoints() const { return points; }
+  KeyFrameT* GetOriginKF() const { return keyframes.front(); }
+};
 
 // Looking ahead, pitched up 5 deg (the tests always had it so; their comment said down), 0.25 m
 // ahead, 3 cm left, 0.4 m up.

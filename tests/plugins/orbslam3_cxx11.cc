@@ -1,6 +1,8 @@
 // Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
 // Built as C++11 (tests/plugins/CMakeLists.txt): the headers ORB-SLAM3's Tracking.h and the patched
-// Tracking.cc and LocalMapping.cc include (labels.h, local_map.h, pose.h, reacquire.h: their templates, parsed).
+// Tracking.cc, LocalMapping.cc and LoopClosing.cc include (essential_graph.h, labels.h, local_map.h, pose.h,
+// reacquire.h: their templates, parsed).
+#include "rvwo/orbslam3/essential_graph.h"
 #include "rvwo/orbslam3/labels.h"
 #include "rvwo/orbslam3/local_map.h"
 #include "rvwo/orbslam3/pose.h"

@@ -30,17 +30,8 @@ using rvwo::orbslam3::WheelInput;
 using rvwo::orbslam3::WheelInputParams;
 using rvwo::orbslam3::WheelReading;
 using rvwo::test::cameraPose;
+using rvwo::test::Pose;
 using rvwo::test::tiltedCamera;
-
-// As Sophus::SE3f: read through rotationMatrix() and translation(), made from (q, t).
-struct Pose {
-  Pose() = default;
-  Pose(const Eigen::Quaternionf& q, const Eigen::Vector3f& t) : R(q.toRotationMatrix()), t(t) {}
-  Eigen::Matrix3f rotationMatrix() const { return R; }
-  Eigen::Vector3f translation() const { return t; }
-  Eigen::Matrix3f R = Eigen::Matrix3f::Identity();
-  Eigen::Vector3f t = Eigen::Vector3f::Zero();
-};
 
 struct Map;
 struct MapPoint;
@@ -87,17 +78,7 @@ struct MapPoint {
   Map* GetMap() const { return map; }
 };
 
-struct Map {
-  std::mutex mMutexMapUpdate;
-  int changes = 0;
-  std::vector<KeyFrame*> keyframes;
-  std::vector<MapPoint*> points;
-  unsigned long GetInitKFid() const { return 0; }
-  void IncreaseChangeIndex() { ++changes; }
-  std::vector<KeyFrame*> GetAllKeyFrames() const { return keyframes; }
-  std::vector<MapPoint*> GetAllMapPoints() const { return points; }
-  KeyFrame* GetOriginKF() const { return keyframes.front(); }
-};
+struct Map : rvwo::test::MapOf<KeyFrame, MapPoint> {};
 
 rvwo::SE2 robotOfPose(const Pose& p, const Eigen::Isometry3d& T_b_c, double* off_plane) {
   return rvwo::test::robotOf(rvwo::orbslam3::isometryOf(p), T_b_c, off_plane);

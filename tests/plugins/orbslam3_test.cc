@@ -188,6 +188,24 @@ TEST(WheelInput, ReadsRvwoKeysFromTheSettings) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("Tracking.Kernel"), std::string::npos) << e.what();
   }
+  // The essential graph on SE(2) unless LoopClosing.Planar 0; its vision sigmas must be > 0.
+  const std::string stereo =
+      "Sensor: \"stereo\"\nCamera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+      "   data: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n";
+  write(stereo);
+  w.configure(path.string());
+  EXPECT_TRUE(w.optimisesEssentialGraphs());
+  write(stereo + "LoopClosing.Planar: 0\n");
+  w.configure(path.string());
+  EXPECT_TRUE(w.optimisesLocalMaps());
+  EXPECT_FALSE(w.optimisesEssentialGraphs());
+  write(stereo + "LoopClosing.SigmaYaw: 0\n");
+  try {
+    w.configure(path.string());
+    FAIL() << "LoopClosing.SigmaYaw 0";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("LoopClosing.SigmaXY and .SigmaYaw"), std::string::npos) << e.what();
+  }
   std::filesystem::remove(path);
 }
 

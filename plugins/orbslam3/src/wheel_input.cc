@@ -97,6 +97,26 @@ struct WheelInput::Impl {
   bool covers(double ti, double tj) const {
     return !odometry.empty() && ti <= tj && odometry.firstTime() <= ti && tj <= odometry.lastTime();
   }
+  // Wheel edges between keyframes consecutive in time (eq. 14), keyframe k at t[k]: one end at
+  // least free, at most max_wheel_span apart, covered by the readings kept. Under the mutex.
+  struct Span {
+    std::size_t a, b;
+    WheelDelta delta;
+    bool slipped;
+  };
+  std::vector<Span> wheelSpans(const std::vector<double>& t, const std::vector<char>& fixed) const {
+    std::vector<std::size_t> order(t.size());
+    for (std::size_t k = 0; k < t.size(); ++k) order[k] = k;
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return t[a] < t[b]; });
+    std::vector<Span> spans;
+    for (std::size_t k = 0; k + 1 < order.size(); ++k) {
+      const std::size_t a = order[k], b = order[k + 1];
+      if ((fixed[a] && fixed[b]) || !(t[b] > t[a]) || t[b] - t[a] > params.max_wheel_span || !covers(t[a], t[b]))
+        continue;
+      spans.push_back({a, b, integrate(t[a], t[b]), slipBetween(t[a], t[b])});
+    }
+    return spans;
+  }
   // The last frame optimisePose placed, and the last one of those vision went on to track: after
   // a stretch on the wheels alone the wheel edge starts there, so that it carries the stretch's
   // whole uncertainty. (Tied to the previous frame, itself the wheels' guess, it held the frame
@@ -212,6 +232,11 @@ void WheelInput::configure(const std::string& settings_path) {
   p.slip_check = s.number("Tracking.SlipCheck").value_or(1.0) != 0.0;
   p.local_map = s.number("LocalMapping.Planar").value_or(1.0) != 0.0;
   p.max_wheel_span = s.number("LocalMapping.MaxWheelSpan").value_or(p.max_wheel_span);
+  p.essential_graph = s.number("LoopClosing.Planar").value_or(1.0) != 0.0;
+  p.graph_sigma_xy = s.number("LoopClosing.SigmaXY").value_or(p.graph_sigma_xy);
+  p.graph_sigma_yaw = s.number("LoopClosing.SigmaYaw").value_or(p.graph_sigma_yaw);
+  if (!(p.graph_sigma_xy > 0) || !(p.graph_sigma_yaw > 0))
+    throw std::invalid_argument(settings_path + ": LoopClosing.SigmaXY and .SigmaYaw must be > 0");
   p.calibrate = s.number("Odometry.Calibrate").value_or(1.0) != 0.0;
   if (!(p.max_wheel_span > 0)) throw std::invalid_argument(settings_path + ": LocalMapping.MaxWheelSpan must be > 0 s");
   const double dilation = s.number("Segmentation.LabelDilation").value_or(p.label_dilation_px);
@@ -504,30 +529,22 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
 
   // What tracking shares: each point's shape (eq. 7) and the wheels between keyframes.
   std::vector<double> alpha(np, 1.0);
-  struct Span {
-    std::size_t a, b;
-    WheelDelta delta;
-    bool slipped;
-  };
-  std::vector<Span> spans;
+  std::vector<Impl::Span> spans;
   WheelCalibration c;
   {
+    std::vector<double> t(nk);
+    std::vector<char> fixed(nk);
+    for (std::size_t k = 0; k < nk; ++k) {
+      t[k] = pb.keyframes[k].t;
+      fixed[k] = pb.keyframes[k].fixed;
+    }
     std::lock_guard<std::mutex> lock(m.mutex);
     c = m.calibration;
     if (!m.params.huber)
       for (std::size_t i = 0; i < np; ++i) alpha[i] = m.reliability.alpha(pb.points[i].id);
-    // Wheel edges between keyframes consecutive in time (eq. 14), both ends in the problem and
-    // one at least free. ORB-SLAM3's local window is the covisible keyframes: mostly the last
-    // ones, whose wheel edges chain them to the fixed ones before.
-    std::vector<std::size_t> order(nk);
-    for (std::size_t k = 0; k < nk; ++k) order[k] = k;
-    std::sort(order.begin(), order.end(),
-              [&](std::size_t a, std::size_t b) { return pb.keyframes[a].t < pb.keyframes[b].t; });
-    for (std::size_t k = 0; k + 1 < nk; ++k) {
-      const MapKeyFrame &a = pb.keyframes[order[k]], &b = pb.keyframes[order[k + 1]];
-      if ((a.fixed && b.fixed) || !(b.t > a.t) || b.t - a.t > m.params.max_wheel_span || !m.covers(a.t, b.t)) continue;
-      spans.push_back({order[k], order[k + 1], m.integrate(a.t, b.t), m.slipBetween(a.t, b.t)});
-    }
+    // ORB-SLAM3's local window is the covisible keyframes: mostly the last ones, whose wheel
+    // edges chain them to the fixed ones before.
+    spans = m.wheelSpans(t, fixed);
   }
 
   ceres::Problem::Options po;
@@ -560,7 +577,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   // estimate, so that each local map refines what those before found (as the estimator's).
   const WheelCalibration c_before = c;
   std::vector<ceres::ResidualBlockId> calibrating;
-  for (const Span& sp : spans) {
+  for (const Impl::Span& sp : spans) {
     try {
       const WheelEdge edge(sp.delta);
       if (sp.slipped) {
@@ -651,6 +668,76 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
       out->P_w[i] = T_c0_w * P[i];
       out->solved[i] = 1;
     }
+  return true;
+}
+
+bool WheelInput::optimisesEssentialGraphs() const { return optimisesLocalMaps() && impl_->params.essential_graph; }
+
+bool WheelInput::optimiseEssentialGraph(const EssentialGraph& g, EssentialGraphSolution* out) {
+  if (!optimisesEssentialGraphs()) return false;
+  Impl& m = *impl_;
+  const std::size_t nk = g.keyframes.size();
+  out->T_c_w.resize(nk);
+  out->wheel_edges = 0;
+  std::vector<Eigen::Vector3d> x(nk);
+  std::vector<double> t(nk);
+  std::vector<char> fixed(nk);
+  for (std::size_t k = 0; k < nk; ++k) {
+    out->T_c_w[k] = g.keyframes[k].T_c_w;
+    x[k] = m.planarOf(g.keyframes[k].T_c_w);
+    t[k] = g.keyframes[k].t;
+    fixed[k] = g.keyframes[k].fixed;
+  }
+  std::vector<Impl::Span> spans;
+  {
+    std::lock_guard<std::mutex> lock(m.mutex);
+    spans = m.wheelSpans(t, fixed);
+  }
+
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  // Vision's relative poses on the plane, in eq. 14's form (the residual of any measured T_bi_bj).
+  // ORB-SLAM3 weighs them all alike (identity information on sim(3)); with the wheel edges beside
+  // them they need a covariance of their own: graph_sigma_*.
+  const Eigen::Isometry3d& T_b_c = m.params.T_b_c;
+  WheelDelta seen;
+  const double s_xy = m.params.graph_sigma_xy, s_yaw = m.params.graph_sigma_yaw;
+  seen.covariance = Eigen::Vector3d(s_xy * s_xy, s_xy * s_xy, s_yaw * s_yaw).asDiagonal();
+  for (const GraphEdge& e : g.edges) {
+    if (e.i == e.j || e.i < 0 || e.j < 0 || static_cast<std::size_t>(std::max(e.i, e.j)) >= nk) continue;
+    const SE2 T_bi_bj = planar(T_b_c * e.T_cj_ci.inverse() * T_b_c.inverse());
+    seen.dp = T_bi_bj.translation();
+    seen.dphi = T_bi_bj.angle();
+    problem.AddResidualBlock(new ceres_adapters::WheelCost(WheelEdge(seen)), nullptr, x[e.i].data(), x[e.j].data());
+  }
+  for (const Impl::Span& sp : spans) {
+    try {
+      const WheelEdge edge(sp.delta);
+      // Across a slip tracking caught, Huber at the 99.9 % gate, as in the local map.
+      problem.AddResidualBlock(new ceres_adapters::WheelCost(edge),
+                               sp.slipped ? new ceres::HuberLoss(std::sqrt(kChi2WheelOutlier)) : nullptr,
+                               x[sp.a].data(), x[sp.b].data());
+      ++out->wheel_edges;
+    } catch (const std::invalid_argument&) {  // degenerate covariance: no edge
+    }
+  }
+  for (std::size_t k = 0; k < nk; ++k) {
+    if (!problem.HasParameterBlock(x[k].data())) continue;
+    problem.SetManifold(x[k].data(), new ceres_adapters::SE2Manifold);
+    if (fixed[k]) problem.SetParameterBlockConstant(x[k].data());
+  }
+  if (problem.NumResidualBlocks() == 0) return true;
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;  // hundreds of keyframes, a few edges each
+  so.max_num_iterations = 20;                             // ORB-SLAM3's
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return true;  // as given
+  for (std::size_t k = 0; k < nk; ++k)
+    if (!fixed[k] && problem.HasParameterBlock(x[k].data())) out->T_c_w[k] = m.cameraOf(x[k]);
   return true;
 }
 

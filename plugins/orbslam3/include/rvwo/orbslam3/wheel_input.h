@@ -19,7 +19,9 @@
 //   - optimises the local map of a stereo or RGB-D keyframe (optimiseLocalMap, in place of
 //     ORB-SLAM3's 6-DoF LocalBundleAdjustment): keyframe poses on SE(2), map points in 3-D,
 //     SE(2)-XYZ edges under each point's adaptive kernel and wheel edges between keyframes
-//     consecutive in time (eqs. 6 to 14);
+//     consecutive in time (eqs. 6 to 14); the same over the whole map after a loop
+//     (optimiseLocalMap via optimiseGlobalMap), and loop closing's essential graph on SE(2) with
+//     wheel edges beside vision's relative poses (optimiseEssentialGraph);
 //   - sends keyframes to a segmenter in a thread of its own, and their labels to the reliability
 //     of the map points their keypoints see (eqs. 4, 5): a walker's points lose their weight in
 //     tracking (alpha towards -inf) before they have moved.
@@ -82,7 +84,12 @@ struct WheelInputParams {
   double max_wheel_span = 5.0;  // s: the longest stretch between keyframes a wheel edge of the
                                 // local map spans (calibration errors grow beyond its covariance)
                                 // [LocalMapping.MaxWheelSpan]
-  int label_dilation_px = 8;    // dynamic classes' masks widened by this much [Segmentation.LabelDilation]
+  // ---- the essential graph after a loop (loop closing's pose graph) on SE(2)
+  bool essential_graph = true;     // optimiseEssentialGraph answers (with local_map) [LoopClosing.Planar: 1 | 0]
+  double graph_sigma_xy = 0.005;   // m: vision's relative pose between two keyframes of the essential
+                                   // graph, each axis [LoopClosing.SigmaXY]
+  double graph_sigma_yaw = 0.002;  // rad: its heading [LoopClosing.SigmaYaw]
+  int label_dilation_px = 8;       // dynamic classes' masks widened by this much [Segmentation.LabelDilation]
   // Segmentation.Model: an ONNX network for the keyframes' labels (a path relative to the settings
   // file; its classes: the label set), else none unless setSegmenter gives one.
   // The label set and its priors: Semantics.LabelSet, Semantics.Prior.<class> (voc21 by default).
@@ -153,6 +160,26 @@ struct LocalMapSolution {
   bool calibrated;                       // the odometry's calibration learnt from this local map
 };
 
+// ---- The essential graph after a loop (ORB-SLAM3's OptimizeEssentialGraph problem)
+struct GraphKeyFrame {
+  unsigned long id;
+  double t;
+  Eigen::Isometry3d T_c_w;  // the start: corrected by the loop near it, as tracked elsewhere
+  bool fixed;               // held (the map's first)
+};
+struct GraphEdge {
+  int i, j;                   // indices into EssentialGraph's keyframes
+  Eigen::Isometry3d T_cj_ci;  // vision's relative pose (spanning tree, covisibility, loops)
+};
+struct EssentialGraph {
+  std::vector<GraphKeyFrame> keyframes;
+  std::vector<GraphEdge> edges;
+};
+struct EssentialGraphSolution {
+  std::vector<Eigen::Isometry3d> T_c_w;  // per keyframe (fixed, or on no edge: as given)
+  int wheel_edges;                       // between keyframes consecutive in time
+};
+
 struct PoseSolution {
   Eigen::Isometry3d T_c_w;
   std::vector<char> outlier;  // per match
@@ -207,6 +234,13 @@ class WheelInput {
   // calls the rest. stop: ORB-SLAM3's abort flag, read between iterations (the state reached is
   // kept). False (nothing written) when optimisesLocalMaps() is false.
   bool optimiseLocalMap(const LocalMapProblem& problem, LocalMapSolution* solution, const bool* stop = 0);
+  // Whether optimiseEssentialGraph answers (optimisesLocalMaps() and LoopClosing.Planar).
+  bool optimisesEssentialGraphs() const;
+  // The essential graph on SE(2): vision's relative poses (information from graph_sigma_*) and the
+  // wheel edges between keyframes consecutive in time that the readings still cover, so that the
+  // loop's correction goes where vision and the wheels together are least sure. Safe to call from
+  // ORB-SLAM3's loop closing thread. False (nothing written) when optimisesEssentialGraphs() is false.
+  bool optimiseEssentialGraph(const EssentialGraph& graph, EssentialGraphSolution* solution);
   // The odometry's calibration as the local maps have refined it: distance scale, turn scale
   // (relative, 0: as configured), curvature (rad/m) (rvwo/edges/wheel_preintegration.h).
   Eigen::Vector3d calibration() const;
