@@ -651,4 +651,104 @@ TEST(WheelInputPose, MonocularAndInactiveLeaveItToOrbSlam3) {
   EXPECT_FALSE(off.optimisesPoses());
 }
 
+// ---- a monocular map's first two keyframes against the wheels (monocularScale)
+
+// Mono wheels that saw the robot drive 0.4 m while turning 0.3 rad over [0, 1], and the camera
+// poses of their start and end in a two-view map whose unit is `unit` metres, as ORB-SLAM3 makes
+// one.
+struct TwoViews {
+  Eigen::Isometry3d T_b_c;
+  WheelInput wheels;
+  rvwo::SE2 x0 = rvwo::SE2(1.0, -2.0, 2.9), x1 = x0 * rvwo::SE2(0.39, 0.06, 0.3);
+  // seen: the motion the wheels saw (by default the truth, x0 to x1).
+  explicit TwoViews(bool mono = true, const rvwo::SE2& seen = rvwo::SE2(0.39, 0.06, 0.3),
+                    const Eigen::Isometry3d& T_b_c = tiltedCamera())
+      : T_b_c(T_b_c) {
+    WheelInputParams p;
+    p.T_b_c = T_b_c;
+    p.map_from_depth = !mono;
+    wheels.configure(p);
+    const rvwo::SE2 end = x0 * seen;
+    const Eigen::Vector3d xi = (x0.inverse() * end).log();
+    std::vector<WheelReading> readings;
+    for (int k = 0; k <= 100; ++k) {
+      const rvwo::SE2 x = x0 * rvwo::SE2::exp(0.01 * k * xi);
+      readings.push_back(WheelReading::pose(0.01 * k, x.translation().x(), x.translation().y(), x.angle()));
+    }
+    wheels.add(readings);
+  }
+  // The map's view of a camera pose T_c_w: translations in its unit.
+  static Eigen::Isometry3d inMap(Eigen::Isometry3d T_c_w, double unit) {
+    T_c_w.translation() /= unit;
+    return T_c_w;
+  }
+  double scale(const Eigen::Isometry3d& T_c1_w_true, double unit) {
+    return wheels.monocularScale(0, 1, inMap(cameraPose(x0, T_b_c), unit), inMap(T_c1_w_true, unit));
+  }
+};
+
+TEST(WheelInputInit, TheWheelsGiveAMonocularMapItsMetres) {
+  TwoViews v;
+  const Eigen::Isometry3d T_c1_w = cameraPose(v.x1, v.T_b_c);
+  for (const double unit : {0.37, 1.0, 4.2}) EXPECT_NEAR(v.scale(T_c1_w, unit), unit, 1e-6 * unit) << unit;
+  // ORB-SLAM3's own frame: the first camera at the origin.
+  const Eigen::Isometry3d T_c0_w = cameraPose(v.x0, v.T_b_c);
+  EXPECT_NEAR(
+      v.wheels.monocularScale(0, 1, Eigen::Isometry3d::Identity(), TwoViews::inMap(T_c1_w * T_c0_w.inverse(), 2.5)),
+      2.5, 1e-6);
+  // Vision's translation a few millimetres off: the scale a little off, not refused.
+  Eigen::Isometry3d T_off = T_c1_w;
+  T_off.translation() += Eigen::Vector3d(0.004, -0.003, 0.005);
+  EXPECT_NEAR(v.scale(T_off, 0.5), 0.5, 0.5 * 0.03);
+  // In metres, the map has the wheels' scale: its frames go on SE(2), mono observations (no
+  // baseline, no stereo edge) and all.
+  ASSERT_TRUE(v.wheels.optimisesPoses());
+  StereoFrame f(v.x1, v.T_b_c, 200, 0.0, 5);
+  f.problem.bf = 0;
+  for (PoseMatch& m : f.problem.matches) m.u_right = -1;
+  f.problem.t = 1.0;
+  f.problem.T_c_w = cameraPose(v.x1 * rvwo::SE2(0.03, 0.02, 0.02), v.T_b_c);
+  PoseSolution solution;
+  ASSERT_TRUE(v.wheels.optimisePose(f.problem, &solution));
+  double off_plane = 1;
+  const rvwo::SE2 e = v.x1.inverse() * robotOf(solution.T_c_w, v.T_b_c, &off_plane);
+  EXPECT_LT(e.translation().norm(), 0.005);
+  EXPECT_LT(std::fabs(e.angle()), 0.002);
+}
+
+TEST(WheelInputInit, AMapTheWheelsContradictIsRefused) {
+  TwoViews v;
+  const Eigen::Isometry3d T_c1_w = cameraPose(v.x1, v.T_b_c);
+  // Turned 0.1 rad more than the wheels, or pitched 0.1 rad: off the floor.
+  EXPECT_EQ(v.scale(cameraPose(v.x0 * rvwo::SE2(0.39, 0.06, 0.4), v.T_b_c), 1.0), 0.0);
+  const Eigen::Isometry3d pitched = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()) * T_c1_w;
+  EXPECT_EQ(v.scale(pitched, 1.0), 0.0);
+  // Travel sideways, or backwards (mono's two-fold ambiguity; with the camera over the axle, a
+  // negative scale would explain it exactly).
+  EXPECT_EQ(v.scale(cameraPose(v.x0 * rvwo::SE2(0.06, 0.39, 0.3), v.T_b_c), 1.0), 0.0);
+  Eigen::Isometry3d over_axle = tiltedCamera();
+  over_axle.translation().setZero();
+  TwoViews axle(true, rvwo::SE2(0.39, 0.06, 0.3), over_axle);
+  EXPECT_EQ(axle.scale(cameraPose(axle.x0 * rvwo::SE2(-0.39, -0.06, 0.3), axle.T_b_c), 1.0), 0.0);
+  EXPECT_NEAR(axle.scale(cameraPose(axle.x1, axle.T_b_c), 1.0), 1.0, 1e-6);
+  // Nearly a turn in place (2 cm), and vision agrees: too short a baseline for a map.
+  const rvwo::SE2 turn(0.02, 0.0, 0.3);
+  TwoViews spin(true, turn);
+  EXPECT_EQ(spin.scale(cameraPose(spin.x0 * turn, spin.T_b_c), 1.0), 0.0);
+  // A map refused after one in metres: its successor's scale is not known to be the wheels'.
+  EXPECT_TRUE(axle.wheels.optimisesPoses());
+  EXPECT_EQ(axle.scale(cameraPose(axle.x0 * rvwo::SE2(-0.39, -0.06, 0.3), axle.T_b_c), 1.0), 0.0);
+  EXPECT_FALSE(axle.wheels.optimisesPoses());
+}
+
+TEST(WheelInputInit, NoAnswerWithoutMonoWheelsThatCoverTheTwoViews) {
+  TwoViews v, stereo(false);
+  const Eigen::Isometry3d T_c0_w = cameraPose(v.x0, v.T_b_c), T_c1_w = cameraPose(v.x1, v.T_b_c);
+  EXPECT_EQ(v.wheels.monocularScale(0.5, 1.5, T_c0_w, T_c1_w), -1.0);  // beyond the readings
+  EXPECT_FALSE(v.wheels.optimisesPoses());
+  EXPECT_EQ(stereo.scale(T_c1_w, 1.0), -1.0);  // a stereo map is in metres already
+  EXPECT_TRUE(stereo.wheels.optimisesPoses());
+  EXPECT_EQ(WheelInput().monocularScale(0, 1, T_c0_w, T_c1_w), -1.0);
+}
+
 }  // namespace

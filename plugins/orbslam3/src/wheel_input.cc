@@ -4,6 +4,7 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -64,6 +65,9 @@ struct WheelInput::Impl {
   int run = 0;  // frames on the wheels in a row, this one included
   bool keyframe = false;
   bool blind = false;  // the frame tracked last was on the wheels with fewer than min_features
+  // Mono: the map is in metres (monocularScale), the wheels' scale. Read by local mapping too.
+  std::atomic<bool> metric{false};
+  double monocularScale(double t0, double t1, const Eigen::Isometry3d& T_c0_w, const Eigen::Isometry3d& T_c1_w) const;
   std::vector<std::pair<double, double>> intervals;
   // ---- pose optimisation
   ReliabilityManager reliability;  // per map point id: eq. 6 from its latest whitened error
@@ -181,7 +185,7 @@ struct WheelInput::Impl {
     stereo.reset();
     camera.emplace(p.fx, p.fy, p.cx, p.cy);
     mono.emplace(*camera, params.T_b_c);
-    stereo.emplace(*camera, params.T_b_c, p.bf);
+    if (p.bf > 0) stereo.emplace(*camera, params.T_b_c, p.bf);  // none for mono (bf 0)
     stereo_bf = p.bf;
   }
   double stereo_bf = 0.0;
@@ -232,6 +236,11 @@ void WheelInput::configure(const std::string& settings_path) {
   p.slip_check = s.number("Tracking.SlipCheck").value_or(1.0) != 0.0;
   p.local_map = s.number("LocalMapping.Planar").value_or(1.0) != 0.0;
   p.max_wheel_span = s.number("LocalMapping.MaxWheelSpan").value_or(p.max_wheel_span);
+  p.init_min_travel = s.number("Initializer.MinTravel").value_or(p.init_min_travel);
+  p.init_max_turn = s.number("Initializer.MaxTurnError").value_or(p.init_max_turn);
+  p.init_max_path = s.number("Initializer.MaxPathError").value_or(p.init_max_path);
+  if (!(p.init_min_travel > 0) || !(p.init_max_turn > 0) || !(p.init_max_path > 0))
+    throw std::invalid_argument(settings_path + ": Initializer.MinTravel, .MaxTurnError and .MaxPathError must be > 0");
   p.essential_graph = s.number("LoopClosing.Planar").value_or(1.0) != 0.0;
   p.graph_sigma_xy = s.number("LoopClosing.SigmaXY").value_or(p.graph_sigma_xy);
   p.graph_sigma_yaw = s.number("LoopClosing.SigmaYaw").value_or(p.graph_sigma_yaw);
@@ -356,7 +365,48 @@ std::vector<std::pair<double, double>> WheelInput::wheelOnlyIntervals() const {
   return impl_ ? impl_->intervals : std::vector<std::pair<double, double>>{};
 }
 
-bool WheelInput::optimisesPoses() const { return impl_ && impl_->params.planar && impl_->params.map_from_depth; }
+double WheelInput::monocularScale(double t0, double t1, const Eigen::Isometry3d& T_c0_w,
+                                  const Eigen::Isometry3d& T_c1_w) {
+  if (!impl_ || impl_->params.map_from_depth) return -1.0;
+  const double scale = impl_->monocularScale(t0, t1, T_c0_w, T_c1_w);
+  impl_->metric = scale > 0;
+  return scale;
+}
+
+double WheelInput::Impl::monocularScale(double t0, double t1, const Eigen::Isometry3d& T_c0_w,
+                                        const Eigen::Isometry3d& T_c1_w) const {
+  const Impl& m = *this;
+  WheelDelta d;
+  {
+    std::lock_guard<std::mutex> lock(m.mutex);
+    if (!m.covers(t0, t1)) return -1.0;
+    d = m.integrate(t0, t1);
+  }
+  if (d.dp.norm() < m.params.init_min_travel) return 0.0;  // a rotation, or too short a baseline
+  // The body's motion the map implies, its translation affine in the unknown scale s:
+  //   T_b0_b1 = T_b_c T_c0_c1(s) T_c_b,  p_b0_b1(s) = s R_b_c t_c0_c1 + t_b_c - R_b0_b1 t_b_c
+  const Eigen::Isometry3d& T_b_c = m.params.T_b_c;
+  const Eigen::Isometry3d T_c0_c1 = T_c0_w * T_c1_w.inverse();
+  const Eigen::Matrix3d R_b0_b1 = T_b_c.linear() * T_c0_c1.linear() * T_b_c.linear().transpose();
+  // Its turn against the wheels' (a tilt counts: the robot stays on its floor).
+  const double turn =
+      Eigen::AngleAxisd(Eigen::AngleAxisd(d.dphi, Eigen::Vector3d::UnitZ()).toRotationMatrix().transpose() * R_b0_b1)
+          .angle();
+  if (turn > m.params.init_max_turn + 3.0 * std::sqrt(d.covariance(2, 2))) return 0.0;
+  const Eigen::Vector2d a = (T_b_c.linear() * T_c0_c1.translation()).head<2>();
+  const Eigen::Vector2d c = (T_b_c.translation() - R_b0_b1 * T_b_c.translation()).head<2>();
+  if (a.squaredNorm() < 1e-12) return 0.0;  // no translation at all
+  const double scale = a.dot(d.dp - c) / a.squaredNorm();
+  // Travel in the wheels' direction, as far as theirs give or take their noise.
+  const double off = (scale * a + c - d.dp).norm();
+  const double sigma_p = std::sqrt(d.covariance.topLeftCorner<2, 2>().trace());
+  if (!(scale > 0) || off > m.params.init_max_path * d.dp.norm() + 3.0 * sigma_p) return 0.0;
+  return scale;
+}
+
+bool WheelInput::optimisesPoses() const {
+  return impl_ && impl_->params.planar && (impl_->params.map_from_depth || impl_->metric);
+}
 
 bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   if (!optimisesPoses() || pb.matches.size() < 3) return false;
@@ -407,8 +457,8 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
     }
   }
   Eigen::Vector3d x = m.planarOf(pb.T_c_w);
-  PlanarPoseResult r =
-      optimisePlanarPose(*m.mono, &*m.stereo, obs, WheelPrior{edge ? &*edge : nullptr, x_prev}, opt, &x);
+  PlanarPoseResult r = optimisePlanarPose(*m.mono, m.stereo ? &*m.stereo : nullptr, obs,
+                                          WheelPrior{edge ? &*edge : nullptr, x_prev}, opt, &x);
 
   // Slip: the wheels claimed motion the robot did not make, so every static point disagrees with
   // them and vision alone, started where the robot was, explains clearly more of the trusted
@@ -422,7 +472,8 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
     // shows wheels that creep.
     const bool strained = wheelEdgeStrained(*edge, x_prev, x);
     Eigen::Vector3d x_vision = x_prev;
-    PlanarPoseResult rv = optimisePlanarPose(*m.mono, &*m.stereo, obs, WheelPrior{}, opt, &x_vision);
+    PlanarPoseResult rv =
+        optimisePlanarPose(*m.mono, m.stereo ? &*m.stereo : nullptr, obs, WheelPrior{}, opt, &x_vision);
     // ORB-SLAM3's bar for a tracked frame (30 inliers), twice over, for vision to overrule the wheels.
     constexpr int kMinVision = 60;
     const auto countTrusted = [&](const std::vector<char>& inlier) {
@@ -525,7 +576,8 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   const MapKeyFrame& k0 = pb.keyframes.front();
   const PinholeCamera camera(k0.fx, k0.fy, k0.cx, k0.cy);
   const Se2XyzMonoEdge mono(camera, m.params.T_b_c);
-  const Se2XyzStereoEdge stereo(camera, m.params.T_b_c, k0.bf);
+  std::optional<Se2XyzStereoEdge> stereo;  // none for mono (bf 0)
+  if (k0.bf > 0) stereo.emplace(camera, m.params.T_b_c, k0.bf);
 
   // What tracking shares: each point's shape (eq. 7) and the wheels between keyframes.
   std::vector<double> alpha(np, 1.0);
@@ -560,14 +612,14 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     Eigen::Vector3d& Pi = P[o.point];
     Eigen::Vector2d h;
     if (!mono.predict(xk, Pi, &h)) continue;  // behind the camera: judged an outlier below
-    const bool is_stereo = o.u_right >= 0;
+    const bool is_stereo = o.u_right >= 0 && stereo;
     const double gate = chi2Gate(is_stereo);
     ceres::LossFunction* loss =
         ceres_adapters::reprojectionLoss(m.params.huber, alpha[o.point], m.params.barron_scale, gate);
     ceres::CostFunction* cost =
         is_stereo ? static_cast<ceres::CostFunction*>(
-                        new ceres_adapters::Se2XyzCost<3>(stereo, Eigen::Vector3d(o.u, o.v, o.u_right),
-                                                          stereo.sqrtInformation(xk, Pi, sigma(o), m.out_of_plane)))
+                        new ceres_adapters::Se2XyzCost<3>(*stereo, Eigen::Vector3d(o.u, o.v, o.u_right),
+                                                          stereo->sqrtInformation(xk, Pi, sigma(o), m.out_of_plane)))
                   : new ceres_adapters::Se2XyzCost<2>(mono, Eigen::Vector2d(o.u, o.v),
                                                       mono.sqrtInformation(xk, Pi, sigma(o), m.out_of_plane));
     problem.AddResidualBlock(cost, loss, x[o.keyframe].data(), Pi.data());
@@ -649,11 +701,11 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     PoseObservation po_k;
     po_k.P_w = P[o.point];
     po_k.z = Eigen::Vector3d(o.u, o.v, o.u_right);
-    po_k.stereo = o.u_right >= 0;
+    po_k.stereo = o.u_right >= 0 && stereo;
     po_k.sigma_px = sigma(o);
     double chi2 = 0.0;
-    out->outlier[k] =
-        !whitenedChi2(mono, &stereo, po_k, x[o.keyframe], m.out_of_plane, &chi2) || !(chi2 <= chi2Gate(po_k.stereo));
+    out->outlier[k] = !whitenedChi2(mono, stereo ? &*stereo : nullptr, po_k, x[o.keyframe], m.out_of_plane, &chi2) ||
+                      !(chi2 <= chi2Gate(po_k.stereo));
   }
   const Eigen::Isometry3d T_c0_w = m.params.T_b_c.inverse();
   // What was not in the problem (no edge: a keyframe neither seeing nor reached by the wheels, a

@@ -16,7 +16,8 @@
 // KeyFrame and Map so that no ORB-SLAM3 header is needed here (nor Sophus: poses are read through
 // rotationMatrix() and translation(), and made from a quaternion and a translation, as
 // Sophus::SE3f is). Both return false, having done nothing, for ORB-SLAM3's own to run instead: a
-// monocular system, a two-camera (fisheye) rig, RVWO's keys absent or LocalMapping.Planar 0.
+// monocular map not in metres (WheelInput::monocularScale), a two-camera (fisheye) rig, RVWO's
+// keys absent or LocalMapping.Planar 0.
 #pragma once
 
 #include <cstddef>

@@ -4,8 +4,9 @@
 // 6-DoF Optimizer::PoseOptimization, with the same contract: it reads the frame's matches
 // (mvpMapPoints), writes its pose and mvbOutlier, and returns the inliers. Included by the
 // patched Tracking.cc (C++11); templated on ORB-SLAM3's Frame so that no ORB-SLAM3 header is
-// needed here (nor Sophus: se3.h). Falls back to `upstream` (Optimizer::PoseOptimization) for a monocular system, a
-// two-camera (fisheye) rig, or fewer than 3 matches.
+// needed here (nor Sophus: se3.h). Falls back to `upstream` (Optimizer::PoseOptimization) for
+// a monocular map not in metres (WheelInput::monocularScale), a two-camera (fisheye) rig, or
+// fewer than 3 matches.
 #pragma once
 
 #include <cstddef>

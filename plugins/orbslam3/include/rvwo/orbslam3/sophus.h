@@ -17,5 +17,13 @@ inline Sophus::SE3f predict(const WheelInput& wheels, const Sophus::SE3f& T_ci_w
   return poseOf<Sophus::SE3f>(wheels.predict(isometryOf(T_ci_w), ti, tj));
 }
 
+// WheelInput::monocularScale of ORB-SLAM3's two first monocular keyframes, as the factor
+// CreateInitialMapMonocular applies (float).
+template <class KeyFrameT>
+float monocularScale(WheelInput& wheels, KeyFrameT* first, KeyFrameT* second) {
+  return static_cast<float>(wheels.monocularScale(first->mTimeStamp, second->mTimeStamp, isometryOf(first->GetPose()),
+                                                  isometryOf(second->GetPose())));
+}
+
 }  // namespace orbslam3
 }  // namespace rvwo

@@ -84,6 +84,13 @@ struct WheelInputParams {
   double max_wheel_span = 5.0;  // s: the longest stretch between keyframes a wheel edge of the
                                 // local map spans (calibration errors grow beyond its covariance)
                                 // [LocalMapping.MaxWheelSpan]
+  // ---- a monocular map's first two keyframes against the wheels (monocularScale)
+  double init_min_travel = 0.05;  // m: the wheels' travel between them below which vision's motion
+                                  // is taken for a rotation alone [Initializer.MinTravel]
+  double init_max_turn = 0.035;   // rad: how far vision's turn (tilt included) may be off the
+                                  // wheels', beyond 3 sigma of theirs [Initializer.MaxTurnError]
+  double init_max_path = 0.2;     // the body's path vision implies, off the wheels' by at most this
+                                  // fraction of its length, beyond 3 sigma [Initializer.MaxPathError]
   // ---- the essential graph after a loop (loop closing's pose graph) on SE(2)
   bool essential_graph = true;     // optimiseEssentialGraph answers (with local_map) [LoopClosing.Planar: 1 | 0]
   double graph_sigma_xy = 0.005;   // m: vision's relative pose between two keyframes of the essential
@@ -220,10 +227,20 @@ class WheelInput {
   // in the spanning tree, so no loop correction or global BA ever moves it, nor the frames on it.
   bool keyFrameWanted(bool orbslam3_needs) const;
   std::size_t wheelOnlyFrames() const;
+
+  // The factor that puts a monocular two-view map in metres (its keyframes at t0 and t1, T_c1_w's
+  // translation and the points in the map's own unit): the one that makes the body's motion the
+  // map implies (through T_b_c) closest to the wheels'. 0: the map disagrees with the wheels (its
+  // turn or tilt, or its direction of travel), or the wheels barely moved (vision's translation
+  // is then an artefact of a rotation): the initialisation is to be rejected. -1: no answer
+  // (inactive, not monocular, the readings do not cover [t0, t1]). A map put in metres has the
+  // wheels' scale: its poses are optimised on SE(2) as a stereo map's (optimisesPoses) until the
+  // next map's answer.
+  double monocularScale(double t0, double t1, const Eigen::Isometry3d& T_c0_w, const Eigen::Isometry3d& T_c1_w);
   // [first, last] frame time of each stretch on the wheels.
   std::vector<std::pair<double, double> > wheelOnlyIntervals() const;
 
-  // Whether optimisePose answers (active, planar, stereo or RGB-D).
+  // Whether optimisePose answers (active, planar, stereo or RGB-D, or mono in metres).
   bool optimisesPoses() const;
   // The pose of a frame on SE(2): false (and nothing written) when optimisesPoses() is false or
   // the problem has fewer than 3 matches, for ORB-SLAM3's own PoseOptimization to run instead.
