@@ -421,10 +421,14 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   // new points are the closest features, often a walker's: placing frames before their labels
   // came, they turned the robot 10 to 19 deg it did not turn (RGB-D dynamic, 0 to 6 s), and
   // vision alone took 30 frames there for slips.
+  // Mono excepted: its points are triangulated after the keyframes that see them were segmented,
+  // so labels reach them only through later keyframes; waiting for those, tracking starved (the
+  // mono static scenario: on the wheels from 6 s to the end). There labels only reject.
+  const bool need_label = m.segmenter && m.params.map_from_depth;
   std::vector<char> trusted(n);
   for (std::size_t k = 0; k < n; ++k) {
     const std::optional<LandmarkReliability> rel = m.reliability.get(pb.matches[k].id);
-    trusted[k] = (!rel || rel->ps < kTrustedMaxPs) && (!m.segmenter || (rel && rel->labelled > 0));
+    trusted[k] = (!rel || rel->ps < kTrustedMaxPs) && (!need_label || (rel && rel->labelled > 0));
   }
   std::vector<PoseObservation> obs(n);
   for (std::size_t k = 0; k < n; ++k) {
