@@ -249,18 +249,21 @@ struct StereoFrame {
 };
 
 // The odometry reports the truth (or, slipping, what `claimed` says) at 100 Hz over [0, 1].
-void configureWheels(WheelInput& w, const Eigen::Isometry3d& T_b_c, const std::function<rvwo::SE2(double)>& claimed,
-                     bool slip_check = true) {
-  WheelInputParams p;
-  p.T_b_c = T_b_c;
-  p.slip_check = slip_check;
-  w.configure(p);
+void addReadings(WheelInput& w, const std::function<rvwo::SE2(double)>& claimed) {
   std::vector<WheelReading> readings;
   for (int k = 0; k <= 100; ++k) {
     const rvwo::SE2 x = claimed(0.01 * k);
     readings.push_back(WheelReading::pose(0.01 * k, x.translation().x(), x.translation().y(), x.angle()));
   }
   w.add(readings);
+}
+void configureWheels(WheelInput& w, const Eigen::Isometry3d& T_b_c, const std::function<rvwo::SE2(double)>& claimed,
+                     bool slip_check = true) {
+  WheelInputParams p;
+  p.T_b_c = T_b_c;
+  p.slip_check = slip_check;
+  w.configure(p);
+  addReadings(w, claimed);
 }
 
 TEST(WheelInputPose, PlacesTheFrameOnThePlaneThroughOutliers) {
@@ -668,14 +671,8 @@ struct TwoViews {
     p.T_b_c = T_b_c;
     p.map_from_depth = !mono;
     wheels.configure(p);
-    const rvwo::SE2 end = x0 * seen;
-    const Eigen::Vector3d xi = (x0.inverse() * end).log();
-    std::vector<WheelReading> readings;
-    for (int k = 0; k <= 100; ++k) {
-      const rvwo::SE2 x = x0 * rvwo::SE2::exp(0.01 * k * xi);
-      readings.push_back(WheelReading::pose(0.01 * k, x.translation().x(), x.translation().y(), x.angle()));
-    }
-    wheels.add(readings);
+    const Eigen::Vector3d xi = seen.log();
+    addReadings(wheels, [&](double t) { return x0 * rvwo::SE2::exp(t * xi); });
   }
   // The map's view of a camera pose T_c_w: translations in its unit.
   static Eigen::Isometry3d inMap(Eigen::Isometry3d T_c_w, double unit) {

@@ -59,7 +59,7 @@ bool optimiseEssentialGraph(WheelInput& wheels, MapT* map, KeyFrameT* loop_kf, K
   std::vector<KeyFrameT*> keyframes;
   std::map<KeyFrameT*, int> index;
   EssentialGraph graph;
-  std::vector<Eigen::Isometry3d> before;  // where each keyframe was before the correction
+  std::vector<Eigen::Isometry3d> start, before;  // where the graph starts each; where it was before the correction
   const std::vector<KeyFrameT*> all = map->GetAllKeyFrames();
   for (std::size_t k = 0; k < all.size(); ++k) {
     KeyFrameT* kf = all[k];
@@ -70,6 +70,7 @@ bool optimiseEssentialGraph(WheelInput& wheels, MapT* map, KeyFrameT* loop_kf, K
     index[kf] = static_cast<int>(keyframes.size());
     keyframes.push_back(kf);
     graph.keyframes.push_back(g);
+    start.push_back(T);
     before.push_back(n != non_corrected.end() ? detail::isometryOfSim3(n->second) : T);
   }
   std::set<std::pair<int, int> > joined;  // (lower, higher index)
@@ -79,8 +80,6 @@ bool optimiseEssentialGraph(WheelInput& wheels, MapT* map, KeyFrameT* loop_kf, K
     graph.edges.push_back(e);
     joined.insert(std::make_pair(std::min(i, j), std::max(i, j)));
   };
-  std::vector<Eigen::Isometry3d> start(graph.keyframes.size());
-  for (std::size_t k = 0; k < start.size(); ++k) start[k] = graph.keyframes[k].T_c_w;
   for (typename ConnectionsT::const_iterator it = loop_connections.begin(); it != loop_connections.end(); ++it) {
     const typename std::map<KeyFrameT*, int>::const_iterator i = index.find(it->first);
     if (i == index.end()) continue;
