@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
     TCLAP::SwitchArg fisheye("", "fisheye", "openloris: the T265 fisheye pair instead of RGB-D", cmd);
     TCLAP::ValueArg<double> depth_factor("", "depth-factor", "generic: depth units per metre (1000)", false, 1000, "f",
                                          cmd);
-    cmd.parse(argc, argv);
+    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
 
     const fs::path in(in_arg.getValue());

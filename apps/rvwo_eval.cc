@@ -53,7 +53,7 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<std::string> plot("", "plot", "also write a PNG: trajectories from above, ATE over time", false, "",
                                       "P.png", cmd);
     TCLAP::SwitchArg first_block("", "first-block", "read only the first 'seq:' block of each file (OpenLORIS)", cmd);
-    cmd.parse(argc, argv);
+    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
     if (unit.getValue() != "f" && unit.getValue() != "m") throw std::invalid_argument("--delta-unit: f or m");
     if (!(max_dt.getValue() >= 0)) throw std::invalid_argument("--max-dt must be >= 0");
 

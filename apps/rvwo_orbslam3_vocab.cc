@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<int> k("", "k", "branching factor (default 10)", false, 10, "K", cmd);
     TCLAP::ValueArg<int> levels("", "levels", "depth of the tree (default 4: at most k^4 words)", false, 4, "L", cmd);
     TCLAP::ValueArg<int> features("", "features", "ORB features per image (default 1200)", false, 1200, "N", cmd);
-    cmd.parse(argc, argv);
+    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
     if (every.getValue() < 1 || k.getValue() < 2 || levels.getValue() < 1 || features.getValue() < 100)
       throw std::invalid_argument("--every >= 1, --k >= 2, --levels >= 1, --features >= 100");
 

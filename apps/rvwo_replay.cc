@@ -473,7 +473,7 @@ int main(int argc, char** argv) {
         "", "vocabulary", "ORB-SLAM3's DBoW2 vocabulary, text (--backend orbslam3; rvwo-orbslam3-vocab makes one)",
         false, "", "voc.txt", cmd);
 #endif
-    cmd.parse(argc, argv);
+    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
     FLAGS_minloglevel = 2;
 
     // ---- settings and options ----

@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<std::string> scale("", "scale", "per-channel scale (default 1/127.5 each)", false,
                                        "0.00784313725,0.00784313725,0.00784313725", "a,b,c", cmd);
     TCLAP::SwitchArg label_output("", "label-output", "the network outputs class ids, not class scores", cmd);
-    cmd.parse(argc, argv);
+    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);  // our errors are one line each
 
     const rvwo::SemanticPriors priors = rvwo::SemanticPriors::builtin(labels.getValue());

@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<double> duration_arg("", "duration", "override the scenario's duration, s (e.g. a short test)",
                                          false, 0, "s", cmd);
     TCLAP::SwitchArg quiet("", "quiet", "no progress line", cmd);
-    cmd.parse(argc, argv);
+    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
 
     const auto t_start = std::chrono::steady_clock::now();

@@ -1,0 +1,26 @@
+# `<app> --help` and `--version` must teach and exit 0 without doing the program's work: no error
+# line, nothing written. (MRPT's TCLAP returns false from parse() instead of exiting, so an app
+# that ignores it goes on with empty arguments: it failed, or rvwo-demo ran a whole demo.)
+#   cmake -DAPP=<executable> -DWORK=<empty scratch folder> -P help_test.cmake
+file(REMOVE_RECURSE "${WORK}")
+file(MAKE_DIRECTORY "${WORK}")
+foreach(flag --help --version)
+  execute_process(COMMAND "${APP}" ${flag} WORKING_DIRECTORY "${WORK}" RESULT_VARIABLE rc OUTPUT_VARIABLE out
+                  ERROR_VARIABLE err TIMEOUT 20)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${APP} ${flag}: exit ${rc}, stderr: ${err}")
+  endif()
+  if(NOT err STREQUAL "")
+    message(FATAL_ERROR "${APP} ${flag}: wrote to stderr: ${err}")
+  endif()
+  if(flag STREQUAL "--help" AND NOT out MATCHES "USAGE:")
+    message(FATAL_ERROR "${APP} --help: no usage in: ${out}")
+  endif()
+  if(flag STREQUAL "--version" AND NOT out MATCHES "version")
+    message(FATAL_ERROR "${APP} --version: no version in: ${out}")
+  endif()
+endforeach()
+file(GLOB written "${WORK}/*")
+if(written)
+  message(FATAL_ERROR "${APP} --help or --version wrote: ${written}")
+endif()
