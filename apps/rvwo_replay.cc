@@ -164,6 +164,11 @@ class Prefetcher {
     std::lock_guard<std::mutex> lock(mutex_);
     return error_;
   }
+  // Records read (after the reading thread is done).
+  std::size_t records() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return done_ ? reader_.count() : 0;
+  }
 
  private:
   void push(Event e) {
@@ -219,8 +224,7 @@ class Prefetcher {
           } else if (obs->sensorLabel == labels_) {
             auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
             if (!im) throw std::runtime_error("sensor " + labels_ + " is not a CObservationImage");
-            if (im->image.isExternallyStored() && !fs::exists(im->image.getExternalStorageFileAbsolutePath()))
-              throw std::runtime_error("cannot read image " + im->image.getExternalStorageFileAbsolutePath());
+            rvwo::apps::requireImageFile(im->image);
             push(Labels{t, im->image});
           }
         } catch (const std::exception& e) {
@@ -591,7 +595,9 @@ int main(int argc, char** argv) {
       progress(p);
     };
 #endif
+    std::string first_skip;
     auto skip = [&](const std::string& why) {
+      if (first_skip.empty()) first_skip = why;
       ++skipped;
       if (skipped <= 10) std::fprintf(stderr, "%srvwo-replay: skipped %s\n", tty ? "\n" : "", why.c_str());
       if (skipped == 10) std::fprintf(stderr, "rvwo-replay: (further skips are counted, not shown)\n");
@@ -693,9 +699,15 @@ int main(int argc, char** argv) {
     if (tty) std::fprintf(stderr, "\n");
 
     // ---- output ----
+    if (frames == 0 && !read_error.empty()) throw std::runtime_error(read_error);  // (not a rawlog, or cut short)
+    if (frames == 0 && reader.records() == 0)
+      throw std::runtime_error(rawlog_arg.getValue() + ": no records (an empty rawlog)");
+    if (frames == 0 && skipped > 0)
+      throw std::runtime_error(rawlog_arg.getValue() + ": no camera frame could be used (" + std::to_string(skipped) +
+                               " records skipped; the first: " + first_skip + ")");
     if (frames == 0)
       throw std::runtime_error(rawlog_arg.getValue() + ": no camera frames (sensor label '" + camera_label +
-                               "'; Rawlog.CameraLabel names another)" + (read_error.empty() ? "" : "; " + read_error));
+                               "'; Rawlog.CameraLabel names another)");
     if (opt.mode != rvwo::estimator::Mode::kVo && odometry_count == 0)
       throw std::runtime_error(rawlog_arg.getValue() + ": no odometry (sensor label '" + odometry_label +
                                "'): --mode vo runs without it");

@@ -49,10 +49,9 @@ std::optional<mrpt::obs::CObservation::Ptr> RawlogReader::next() {
       // No byte read and at the end of the file: it ends at a record boundary. Anything else (a
       // record cut short, or bytes zlib or the deserializer reject) is a broken record.
       if (in_.getPosition() == before && in_.checkEOF()) return std::nullopt;
-      std::string what = e.what();
-      const auto nl = what.find('\n');  // MRPT's messages carry a stack trace after the first line
-      if (nl != std::string::npos) what = what.substr(0, nl);
-      throw RawlogError(path_, count_, "truncated or corrupt (" + what + ")");
+      throw RawlogError(path_, count_,
+                        (count_ == 0 ? "not a rawlog, or corrupt from its start (" : "truncated or corrupt (") +
+                            mrptMessage(e.what()) + ")");
     }
     if (auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(object)) {
       pending_.push_back(obs);
@@ -69,8 +68,31 @@ std::optional<mrpt::obs::CObservation::Ptr> RawlogReader::next() {
   return obs;
 }
 
+std::string mrptMessage(const std::string& what) {
+  // "==== MRPT exception ====\nMessage:  <text>\nLocation: ...\nCall stack backtrace: ...", nested
+  // with "Original exception:": the innermost message is the cause.
+  const std::string key = "Message:";
+  const std::size_t at = what.rfind(key);
+  std::string line = what.substr(at == std::string::npos ? 0 : at + key.size());
+  line = line.substr(0, line.find('\n'));
+  const std::size_t first = line.find_first_not_of(' ');
+  return first == std::string::npos ? what.substr(0, what.find('\n')) : line.substr(first);
+}
+
+void requireImageFile(const mrpt::img::CImage& image) {
+  if (!image.isExternallyStored()) return;
+  const std::string path = image.getExternalStorageFileAbsolutePath();
+  if (std::filesystem::exists(path)) return;
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  if (!std::filesystem::is_directory(folder))
+    throw std::runtime_error("cannot read image " + path + ": no folder " + folder.string() +
+                             " (a rawlog's images are kept in <name>_Images beside it)");
+  throw std::runtime_error("cannot read image " + path + ": no such file");
+}
+
 cv::Mat loadImage(const mrpt::img::CImage& image, int flags) {
   if (image.isExternallyStored()) {
+    requireImageFile(image);  // (first: OpenCV would print a warning of its own for a missing file)
     const std::string path = image.getExternalStorageFileAbsolutePath();
     cv::Mat m = cv::imread(path, flags);
     if (m.empty()) throw std::runtime_error("cannot read image " + path);

@@ -70,4 +70,12 @@ class RawlogReader {
 // copied; cv::IMREAD_GRAYSCALE gives one channel either way.
 cv::Mat loadImage(const mrpt::img::CImage& image, int flags);
 
+// Throws std::runtime_error "cannot read image <path>: <why>" when an externally stored image's
+// file is missing (naming the images folder when that is what is missing).
+void requireImageFile(const mrpt::img::CImage& image);
+
+// The cause in an MRPT exception's what(): its innermost "Message:" line, without the banner,
+// location and stack trace around it (what's first line when it has none).
+std::string mrptMessage(const std::string& what);
+
 }  // namespace rvwo::apps

@@ -198,6 +198,33 @@ TEST(Rawlog, CorruptBytesAndMissingFileGetClearErrors) {
   EXPECT_GT(good, 100u);
   EXPECT_LT(good, 4000u);
   EXPECT_THROW(RawlogReader((dir / "none.rawlog").string()), std::runtime_error);
+  // Not a rawlog at all: said so, in one line, with MRPT's cause and not its banner or stack trace.
+  std::ofstream(dir / "text.rawlog") << "this is a text file, not a rawlog\n";
+  RawlogReader text((dir / "text.rawlog").string());
+  try {
+    text.next();
+    FAIL() << "a text file read as a rawlog";
+  } catch (const RawlogError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(e.index(), 0u);
+    EXPECT_NE(what.find(": record 0: not a rawlog, or corrupt from its start ("), std::string::npos) << what;
+    EXPECT_EQ(what.find("===="), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  // An empty file is an empty rawlog.
+  std::ofstream(dir / "empty.rawlog").close();
+  RawlogReader empty((dir / "empty.rawlog").string());
+  EXPECT_FALSE(empty.next().has_value());
+}
+
+TEST(Rawlog, MrptMessageIsTheInnermostCause) {
+  const std::string nested =
+      "==== MRPT exception ====\nMessage:  Exception while parsing typed object 'x' from .\nOriginal exception:\n"
+      "==== MRPT exception ====\nMessage:  Expecting 0x00 00 00 while parsing\nLocation: a.cpp:364: [f]\n"
+      "Call stack backtrace:\n[0 ] 0x7f\n\nLocation: a.cpp:432: [f]\n";
+  EXPECT_EQ(mrptMessage(nested), "Expecting 0x00 00 00 while parsing");
+  EXPECT_EQ(mrptMessage("plain first line\nsecond"), "plain first line");
+  EXPECT_EQ(mrptMessage("Message:"), "Message:");  // nothing after the key: the line as it is
 }
 
 }  // namespace
@@ -230,8 +257,21 @@ TEST(Rawlog, ImagesLoadGreyWhenAskedWhereverTheyAreStored) {
     rvwo::apps::loadImage(missing, cv::IMREAD_GRAYSCALE);
     FAIL() << "no error for a missing image";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("cannot read image"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()), "cannot read image " + (dir / "none.png").string() + ": no such file");
   }
+  // A rawlog moved without its images: the missing folder is named.
+  mrpt::img::CImage moved;
+  moved.setExternalStorage((dir / "moved_Images" / "L_000000.png").string());
+  try {
+    rvwo::apps::loadImage(moved, cv::IMREAD_GRAYSCALE);
+    FAIL() << "no error for a missing images folder";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(": no folder " + (dir / "moved_Images").string() + " ("), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(rvwo::apps::requireImageFile(moved), std::runtime_error);
+  EXPECT_NO_THROW(rvwo::apps::requireImageFile(outside));
+  EXPECT_NO_THROW(rvwo::apps::requireImageFile(inside));
 }
 
 }  // namespace rvwo::apps

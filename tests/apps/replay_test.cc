@@ -388,6 +388,23 @@ TEST(Replay, BadInputGetsOneClearLine) {
   EXPECT_NE(e3.find(": record "), std::string::npos) << e3;
   EXPECT_GT(lines(dir / "y.txt"), 20u);
   EXPECT_LT(lines(dir / "y.txt"), lines(dir / "groundtruth.txt"));
+  // A rawlog copied without its images folder: ten skips shown, and an error naming the folder
+  // (OpenCV's own warning for each missing file stays silent).
+  fs::copy_file(dir / "sequence.rawlog", dir / "moved.rawlog");
+  const int rc4 =
+      std::system((base + (dir / "moved.rawlog").string() + " > /dev/null 2> " + (dir / "e4.txt").string()).c_str());
+  EXPECT_EQ(WEXITSTATUS(rc4), 1);
+  const std::string e4 = slurp(dir / "e4.txt");
+  EXPECT_LE(lines(dir / "e4.txt"), 12u) << e4;
+  EXPECT_NE(e4.find("rvwo-replay: error: " + (dir / "moved.rawlog").string() + ": no camera frame could be used ("),
+            std::string::npos)
+      << e4;
+  EXPECT_NE(e4.find("no folder " + (dir / "moved_Images").string()), std::string::npos) << e4;
+  // An empty one.
+  std::ofstream(dir / "empty.rawlog").close();
+  std::system((base + (dir / "empty.rawlog").string() + " > /dev/null 2> " + (dir / "e5.txt").string()).c_str());
+  EXPECT_EQ(slurp(dir / "e5.txt"),
+            "rvwo-replay: error: " + (dir / "empty.rawlog").string() + ": no records (an empty rawlog)\n");
   fs::remove_all(dir);
 }
 
