@@ -14,7 +14,6 @@
 //
 // Every list line is checked: a malformed line, a missing image, or odometry whose time does not
 // increase is one error naming the file and the line.
-#include <mrpt/3rdparty/tclap/CmdLine.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CObservationOdometry.h>
@@ -30,6 +29,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "support/command_line.h"
 #include "support/rawlog.h"
 #include "support/trajectory.h"
 
@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
     TCLAP::SwitchArg fisheye("", "fisheye", "openloris: the T265 fisheye pair instead of RGB-D", cmd);
     TCLAP::ValueArg<double> depth_factor("", "depth-factor", "generic: depth units per metre (1000)", false, 1000, "f",
                                          cmd);
-    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
+    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
 
     const fs::path in(in_arg.getValue());

@@ -20,7 +20,6 @@
 // association, not the tracking and mapping pipeline (that is rvwo-replay's job).
 #include <ceres/ceres.h>
 #include <glog/logging.h>
-#include <mrpt/3rdparty/tclap/CmdLine.h>
 
 #include <Eigen/Geometry>
 #include <chrono>
@@ -39,6 +38,7 @@
 #include "rvwo/edges/wheel_preintegration.h"
 #include "rvwo/kernels/reliability.h"
 #include "rvwo/kernels/semantic_priors.h"
+#include "support/command_line.h"
 #include "support/plot.h"
 #include "support/trajectory.h"
 
@@ -394,8 +394,8 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<int> runs("", "runs", "runs with seeds seed, seed+1, ... (default 3)", false, 3, "N", cmd);
     TCLAP::ValueArg<std::string> plot("", "plot", "PNG of the trajectories (default rvwo-demo.png)", false,
                                       "rvwo-demo.png", "file", cmd);
-    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
-    FLAGS_minloglevel = 2;                 // Ceres reports steps that put a point behind the camera; expected here
+    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
+    FLAGS_minloglevel = 2;  // Ceres reports steps that put a point behind the camera; expected here
     if (!(seconds.getValue() >= 10 && seconds.getValue() <= 3600)) throw std::invalid_argument("--seconds: 10 to 3600");
     if (walkers.getValue() < 0 || walkers.getValue() > 20) throw std::invalid_argument("--walkers: 0 to 20");
     if (runs.getValue() < 1 || runs.getValue() > 100) throw std::invalid_argument("--runs: 1 to 100");

@@ -8,12 +8,11 @@
 //   RPE: translation error of the relative motion over a delta of frames or metres (evo_rpe)
 // It prints a report, and optionally writes it as JSON and a PNG of the trajectories seen from
 // above (x, y) with the ATE over time. The equivalent evo commands are in the README.
-#include <mrpt/3rdparty/tclap/CmdLine.h>
-
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
 
+#include "support/command_line.h"
 #include "support/plot.h"
 #include "support/trajectory.h"
 
@@ -53,7 +52,7 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<std::string> plot("", "plot", "also write a PNG: trajectories from above, ATE over time", false, "",
                                       "P.png", cmd);
     TCLAP::SwitchArg first_block("", "first-block", "read only the first 'seq:' block of each file (OpenLORIS)", cmd);
-    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
+    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
     if (unit.getValue() != "f" && unit.getValue() != "m") throw std::invalid_argument("--delta-unit: f or m");
     if (!(max_dt.getValue() >= 0)) throw std::invalid_argument("--max-dt must be >= 0");
 

@@ -10,7 +10,6 @@
 // extractor: build it from recordings other than those you evaluate on. k^levels words at most
 // (k = 10, levels = 4: 10 000; a few minutes for a few hundred images).
 // Built only in a build given ORB_SLAM3_ROOT (with rvwo-replay's --backend orbslam3).
-#include <mrpt/3rdparty/tclap/CmdLine.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CObservationStereoImages.h>
@@ -22,6 +21,7 @@
 #include <vector>
 
 #include "rvwo/orbslam3/runner.h"
+#include "support/command_line.h"
 #include "support/rawlog.h"
 
 int main(int argc, char** argv) {
@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<int> k("", "k", "branching factor (default 10)", false, 10, "K", cmd);
     TCLAP::ValueArg<int> levels("", "levels", "depth of the tree (default 4: at most k^4 words)", false, 4, "L", cmd);
     TCLAP::ValueArg<int> features("", "features", "ORB features per image (default 1200)", false, 1200, "N", cmd);
-    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
+    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
     if (every.getValue() < 1 || k.getValue() < 2 || levels.getValue() < 1 || features.getValue() < 100)
       throw std::invalid_argument("--every >= 1, --k >= 2, --levels >= 1, --features >= 100");
 

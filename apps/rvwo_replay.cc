@@ -24,7 +24,6 @@
 // skipped with a line on stderr; a truncated or corrupt rawlog stops the replay there: what was
 // estimated so far is written, and the exit status is 1.
 #include <glog/logging.h>
-#include <mrpt/3rdparty/tclap/CmdLine.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CObservationOdometry.h>
@@ -51,6 +50,7 @@
 #include <variant>
 
 #include "rvwo/estimator/estimator.h"
+#include "support/command_line.h"
 #ifdef RVWO_WITH_ORBSLAM3
 #include "rvwo/orbslam3/runner.h"
 #endif
@@ -477,7 +477,7 @@ int main(int argc, char** argv) {
         "", "vocabulary", "ORB-SLAM3's DBoW2 vocabulary, text (--backend orbslam3; rvwo-orbslam3-vocab makes one)",
         false, "", "voc.txt", cmd);
 #endif
-    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
+    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
     FLAGS_minloglevel = 2;
 
     // ---- settings and options ----

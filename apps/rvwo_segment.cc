@@ -7,8 +7,6 @@
 //
 //   rvwo-segment --model deeplabv3_mnv2_voc21.onnx --labels voc21 --image rgb.png
 //                --out labels.png --overlay overlay.png
-#include <mrpt/3rdparty/tclap/CmdLine.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -20,6 +18,7 @@
 
 #include "rvwo/kernels/semantic_priors.h"
 #include "rvwo/semantics/onnx_segmenter.h"
+#include "support/command_line.h"
 
 namespace {
 
@@ -65,7 +64,7 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<std::string> scale("", "scale", "per-channel scale (default 1/127.5 each)", false,
                                        "0.00784313725,0.00784313725,0.00784313725", "a,b,c", cmd);
     TCLAP::SwitchArg label_output("", "label-output", "the network outputs class ids, not class scores", cmd);
-    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
+    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);  // our errors are one line each
 
     const rvwo::SemanticPriors priors = rvwo::SemanticPriors::builtin(labels.getValue());

@@ -12,7 +12,6 @@
 // The robot follows a built-in loop or a real trajectory (TUM rows, OpenLORIS blocks, TUM Pioneer
 // files with their tilted plane fitted away). The scenario format is in docs/simulator.md.
 // Same scenario, same seed: same bytes.
-#include <mrpt/3rdparty/tclap/CmdLine.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CObservationOdometry.h>
@@ -32,6 +31,7 @@
 #include "sim/odometry.h"
 #include "sim/scenario.h"
 #include "sim/scene.h"
+#include "support/command_line.h"
 #include "support/rawlog.h"
 #include "support/trajectory.h"
 
@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
     TCLAP::ValueArg<double> duration_arg("", "duration", "override the scenario's duration, s (e.g. a short test)",
                                          false, 0, "s", cmd);
     TCLAP::SwitchArg quiet("", "quiet", "no progress line", cmd);
-    if (!cmd.parse(argc, argv)) return 0;  // MRPT's TCLAP returns false after --help or --version
+    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
 
     const auto t_start = std::chrono::steady_clock::now();

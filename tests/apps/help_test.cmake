@@ -1,6 +1,7 @@
 # `<app> --help` and `--version` must teach and exit 0 without doing the program's work: no error
-# line, nothing written. (MRPT's TCLAP returns false from parse() instead of exiting, so an app
-# that ignores it goes on with empty arguments: it failed, or rvwo-demo ran a whole demo.)
+# line, nothing written; a mistyped option must fail (exit 1) with TCLAP's parse error. (MRPT's
+# TCLAP returns false from parse() in both cases instead of exiting: an app that ignored it went
+# on with empty arguments and failed, and rvwo-demo ran a whole demo.)
 #   cmake -DAPP=<executable> -DWORK=<empty scratch folder> -P help_test.cmake
 file(REMOVE_RECURSE "${WORK}")
 file(MAKE_DIRECTORY "${WORK}")
@@ -20,7 +21,12 @@ foreach(flag --help --version)
     message(FATAL_ERROR "${APP} --version: no version in: ${out}")
   endif()
 endforeach()
+execute_process(COMMAND "${APP}" --no-such-option WORKING_DIRECTORY "${WORK}" RESULT_VARIABLE rc OUTPUT_VARIABLE out
+                ERROR_VARIABLE err TIMEOUT 20)
+if(NOT rc EQUAL 1 OR NOT err MATCHES "PARSE ERROR")
+  message(FATAL_ERROR "${APP} --no-such-option: exit ${rc}, stderr: ${err}")
+endif()
 file(GLOB written "${WORK}/*")
 if(written)
-  message(FATAL_ERROR "${APP} --help or --version wrote: ${written}")
+  message(FATAL_ERROR "${APP} --help, --version or a bad option wrote: ${written}")
 endif()
