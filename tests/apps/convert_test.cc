@@ -174,8 +174,8 @@ TEST(Convert, MalformedFoldersNameFileAndLine) {
   std::ofstream(d / "odometry.csv") << "t,x,y,theta\n1,0,nan,0\n";
   EXPECT_NE(convert("generic --in " + d.string() + " --out " + out, &err), 0);
   EXPECT_NE(err.find("odometry.csv:2: expected 't,x,y,theta' (numbers)"), std::string::npos) << err;
-  EXPECT_NE(convert("openloris --in /nonexistent --out " + out, &err), 0);
-  EXPECT_EQ(err, "rvwo-convert: error: /nonexistent: folder not found\n");
+  EXPECT_NE(convert("openloris --in " + (d / "missing").string() + " --out " + out, &err), 0);
+  EXPECT_EQ(err, "rvwo-convert: error: " + (d / "missing").string() + ": folder not found\n");
 }
 
 }  // namespace

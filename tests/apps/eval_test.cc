@@ -169,12 +169,12 @@ TEST(Eval, ProgramEndToEndWithJson) {
   }
   EXPECT_GT(fs::file_size(dir / "p.png"), 10000u);
   // Bad input: one line on stderr, exit status 1, no crash.
-  const std::string bad = std::string(RVWO_EVAL) + " --gt /nonexistent.txt --est " + (dir / "est.txt").string() +
-                          " 2> " + (dir / "err.txt").string();
+  const std::string bad = std::string(RVWO_EVAL) + " --gt " + (dir / "missing.txt").string() + " --est " +
+                          (dir / "est.txt").string() + " 2> " + (dir / "err.txt").string();
   EXPECT_NE(std::system(bad.c_str()), 0);
   std::stringstream err;
   err << std::ifstream(dir / "err.txt").rdbuf();
-  EXPECT_EQ(err.str(), "rvwo-eval: error: /nonexistent.txt: cannot be read\n");
+  EXPECT_EQ(err.str(), "rvwo-eval: error: " + (dir / "missing.txt").string() + ": cannot be read\n");
 }
 
 }  // namespace

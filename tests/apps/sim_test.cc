@@ -223,7 +223,7 @@ TEST(Simulator, ScenarioErrorsNameFileAndKey) {
   Scenario fisheye = scenarioFrom("Sequence.Camera: \"mono\"\nSequence.Lens: \"fisheye\"\n", "fisheye");
   fisheye.camera = "rgbd";  // as rvwo-sim --camera rgbd would (fisheye is mono and stereo only)
   EXPECT_THROW(validateScenario(fisheye, "overrides"), std::runtime_error);
-  EXPECT_THROW(loadScenario("/nonexistent/scenario.yaml"), std::runtime_error);
+  EXPECT_THROW(loadScenario(rvwo::test::scratch("rvwo_no_such_folder/scenario.yaml").string()), std::runtime_error);
 }
 
 using rvwo::test::slurp;

@@ -49,7 +49,8 @@ TEST(Settings, ErrorsNameTheFileAndTheKey) {
               "r.yaml: Reliability.Wo");
   expectError([] { readWheelNoise(Settings::fromString("%YAML:1.0\nOdometry.NoiseY: -1\n", "o.yaml")); },
               "o.yaml: Odometry.NoiseY");
-  expectError([] { Settings::load("/nonexistent/settings.yaml"); }, "settings file not found");
+  expectError([] { Settings::load(rvwo::test::scratch("rvwo_no_such_folder/settings.yaml").string()); },
+              "settings file not found");
   const fs::path bad = rvwo::test::scratch("rvwo_bad_settings.yaml");
   std::ofstream(bad) << "this: [is not closed\n";
   expectError([&] { Settings::load(bad.string()); }, bad.string() + ": ");
