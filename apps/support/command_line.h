@@ -21,6 +21,9 @@ inline std::optional<int> parseCommandLine(TCLAP::CmdLine& cmd, int argc, char**
     }
   };
   static Output output;  // (the command line keeps a pointer to it)
+  // The command line's own output, made in its constructor, is deleted by its destructor only
+  // when no other was set: it goes here (or it leaks, and LeakSanitizer fails every app).
+  delete cmd.getOutput();
   cmd.setOutput(&output);
   if (cmd.parse(argc, argv)) return std::nullopt;
   return output.failed ? 1 : 0;
