@@ -191,6 +191,17 @@ TEST(WheelsAgainstVision, SlipIsWheelsClaimingMotionVisionDidNotSee) {
   // Vision thrown far off (walkers pull it anywhere): no slip either.
   EXPECT_FALSE(looksLikeSlip(d, SE2(-0.2, 0.1, 0.0)));
   EXPECT_FALSE(looksLikeSlip(d, SE2(0.05, 0.0, 0.3)));
+  // Sideways: a skid's worth over a frame at 30 Hz (tolerance + 3 cm + 0.3 m/s x 1/30 s = 4.92 cm),
+  // on either side, and no more; over a second a skid carries farther (still within 25 cm).
+  d.t0 = 0.0;
+  d.t1 = 1.0 / 30.0;
+  EXPECT_TRUE(looksLikeSlip(d, SE2(0.0, 0.047, 0.0)));
+  EXPECT_TRUE(looksLikeSlip(d, SE2(0.0, -0.047, 0.0)));
+  EXPECT_FALSE(looksLikeSlip(d, SE2(0.0, 0.052, 0.0)));
+  EXPECT_FALSE(looksLikeSlip(d, SE2(0.0, -0.052, 0.0)));
+  EXPECT_FALSE(looksLikeSlip(d, SE2(0.1, -0.2, 0.0)));
+  d.t1 = 1.0;
+  EXPECT_TRUE(looksLikeSlip(d, SE2(0.1, -0.2, 0.0)));
   // A turn on the spot claimed, none seen.
   WheelDelta spin = d;
   spin.dp.setZero();
@@ -252,6 +263,22 @@ TEST(WheelsAgainstVision, SlipStartsOnClearEvidenceAndGoesOnWhileTheWheelsStillL
   b.min_to_go_on = 30;
   b.T_b0_b1_vision = SE2(0.097, 0.0, 0.049);  // the wheels agree with vision again: the slip ends
   EXPECT_FALSE(decideSlip(b));
+  // From a pose vision alone placed, vision alone misses the claim by at most the claim, the
+  // tolerance (9.2 mm) and 0.3 m/s over the delta (1 cm at 30 Hz): 11.9 cm here. Going 3 cm back
+  // (a 13 cm miss) is no slip then, but is one when frames before took the wheels' side.
+  b = e;
+  b.was_slipping = true;
+  b.vision_inliers = 99;
+  d.t0 = 0.0;
+  d.t1 = 1.0 / 30.0;
+  b.from_vision_alone = true;
+  b.T_b0_b1_vision = SE2(-0.015, 0.0, 0.0);
+  EXPECT_TRUE(decideSlip(b));
+  b.T_b0_b1_vision = SE2(-0.03, 0.0, 0.0);
+  EXPECT_FALSE(decideSlip(b));
+  b.from_vision_alone = false;
+  EXPECT_TRUE(decideSlip(b));
+  d.t1 = 0.0;
   // Worth checking at all: a slip going on, a strained edge, or many matches unexplained.
   EXPECT_FALSE(slipWorthChecking(false, false, 140, 100));
   EXPECT_TRUE(slipWorthChecking(false, false, 141, 100));

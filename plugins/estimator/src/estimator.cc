@@ -662,6 +662,7 @@ struct Estimator::Impl {
         e.candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
         e.strained = strained;
         e.was_slipping = was_slipping;
+        e.from_vision_alone = was_slipping;  // the previous frame's pose was vision alone's
         // Only vision that would place the frame overrules the wheels: mono, blind in a turn among
         // walkers and bumps, called 5 and 12 frames slips that vision could not place, and the
         // pose then held still for the 2 s after, while the robot turned 12 deg (threaded mono

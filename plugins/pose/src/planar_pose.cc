@@ -128,6 +128,11 @@ WheelTolerance::WheelTolerance(const WheelDelta& wheels)
     : translation(3.0 * std::sqrt(wheels.covariance(0, 0) + wheels.covariance(1, 1)) + 0.005),
       rotation(3.0 * std::sqrt(wheels.covariance(2, 2)) + 0.005) {}
 
+namespace {
+// How fast a wheeled robot may move in a way its wheels do not report (a skid), m/s.
+constexpr double kSkidSpeed = 0.3;
+}  // namespace
+
 bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   constexpr double kMaxMiss = 0.25, kMaxTurnMiss = 0.2;  // m, rad
   const WheelTolerance tol(wheels);
@@ -138,7 +143,15 @@ bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   if (std::fabs(turn_miss) > sphi && turn_miss * wheels.dphi <= 0) return false;  // turned more than they
   const double travel = wheels.dp.norm();
   if (travel < 1e-4) return true;  // a turn on the spot: no direction to hold vision to
-  return T_b0_b1_vision.translation().dot(wheels.dp / travel) <= travel + sp;  // went no farther
+  const Eigen::Vector2d along = wheels.dp / travel, v = T_b0_b1_vision.translation();
+  if (v.dot(along) > travel + sp) return false;  // went farther
+  // Sideways no more than a skid carries: kMaxSideways (what the frames before took while vision
+  // could not tell yet) and kSkidSpeed over the delta. Walkers that no label marks pull vision alone
+  // sideways by a walker's step: with no semantics, one took 5 cm a frame for 14 frames (dynamic,
+  // 5.07 s: the first 12 cm sideways and 7 cm back at 0.3 m/s claimed), and the map 0.73 m off.
+  constexpr double kMaxSideways = 0.03;  // m
+  const double sideways = std::fabs(along.x() * v.y() - along.y() * v.x());
+  return sideways <= sp + kMaxSideways + kSkidSpeed * std::max(0.0, wheels.t1 - wheels.t0);
 }
 
 bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
@@ -196,6 +209,15 @@ bool decideSlip(const SlipEvidence& e) {
   const bool better = v > 1.3 * f + 10 ||
                       (e.strained && (v >= 1.05 * f + 10 || (disagree && v > f && wheelsDisagree(d, e.T_b0_b1_fused))));
   const bool slip_like = looksLikeSlip(d, e.T_b0_b1_vision);
+  // From a pose vision alone placed (the frame before slipped), no frame before took the wheels'
+  // side: vision alone misses their claim by at most the claim (the robot stood) and a skid.
+  // Without semantics, walkers took vision alone 4-5 cm back a frame for six frames while the
+  // wheels claimed 4 mm forward (dynamic, 2.0 s).
+  if (e.from_vision_alone) {
+    const WheelTolerance tol(d);
+    const double miss = (d.dp - e.T_b0_b1_vision.translation()).norm();
+    if (miss > d.dp.norm() + tol.translation + kSkidSpeed * std::max(0.0, d.t1 - d.t0)) return false;
+  }
   const bool as_good = v >= 0.98 * f;
   const bool starts =
       (better || (e.creeping && as_good)) && v >= e.min_to_start && v >= 0.85 * e.candidates && slip_like;

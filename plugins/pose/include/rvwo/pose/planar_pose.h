@@ -94,7 +94,8 @@ struct WheelTolerance {
 // turned no more their way (beyond their 3 sigma and 5 mm / 5 mrad a frame), and the difference
 // stays small (the frames before took the wheels' side only while vision could not tell). It may
 // lie sideways and turn against them: the miss is measured from the last pose, and includes what
-// those frames took. Among walkers, vision alone is pulled anywhere, often further or turning
+// those frames took; sideways no farther than 3 cm and a skid at 0.3 m/s over the delta (beyond
+// the tolerance). Among walkers, vision alone is pulled anywhere, often further or turning
 // more than the wheels: without this test 56 frames of the 90 s dynamic scenario took it, one 35 cm
 // off the robot. T_b0_b1_vision: the motion vision alone found over the wheels' delta.
 bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
@@ -133,6 +134,10 @@ struct SlipEvidence {
                               // which solves a frame twice, the frame's first solve's)
   // Vision-alone inliers a slip needs to start, and to go on (at least what places a frame).
   int min_to_start = 0, min_to_go_on = 0;
+  // The delta starts at a pose vision alone placed (the previous frame slipped): no frame before
+  // took the wheels' side, so vision alone may miss their claim by no more than the claim itself,
+  // the tolerance and a skid's 0.3 m/s.
+  bool from_vision_alone = false;
 };
 
 // Whether the frame is worth solving again without the wheels: a slip goes on, the wheel edge is
