@@ -129,8 +129,12 @@ WheelTolerance::WheelTolerance(const WheelDelta& wheels)
       rotation(3.0 * std::sqrt(wheels.covariance(2, 2)) + 0.005) {}
 
 namespace {
-// How fast a wheeled robot may move in a way its wheels do not report (a skid), m/s.
-constexpr double kSkidSpeed = 0.3;
+// How far a wheeled robot may move over the delta in a way its wheels do not report (a skid, at
+// most 0.3 m/s), m.
+double skidReach(const WheelDelta& wheels) {
+  constexpr double kSkidSpeed = 0.3;  // m/s
+  return kSkidSpeed * std::max(0.0, wheels.t1 - wheels.t0);
+}
 }  // namespace
 
 bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
@@ -146,12 +150,12 @@ bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   const Eigen::Vector2d along = wheels.dp / travel, v = T_b0_b1_vision.translation();
   if (v.dot(along) > travel + sp) return false;  // went farther
   // Sideways no more than a skid carries: kMaxSideways (what the frames before took while vision
-  // could not tell yet) and kSkidSpeed over the delta. Walkers that no label marks pull vision alone
+  // could not tell yet) and skidReach. Walkers that no label marks pull vision alone
   // sideways by a walker's step: with no semantics, one took 5 cm a frame for 14 frames (dynamic,
   // 5.07 s: the first 12 cm sideways and 7 cm back at 0.3 m/s claimed), and the map 0.73 m off.
   constexpr double kMaxSideways = 0.03;  // m
   const double sideways = std::fabs(along.x() * v.y() - along.y() * v.x());
-  return sideways <= sp + kMaxSideways + kSkidSpeed * std::max(0.0, wheels.t1 - wheels.t0);
+  return sideways <= sp + kMaxSideways + skidReach(wheels);
 }
 
 bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
@@ -216,7 +220,7 @@ bool decideSlip(const SlipEvidence& e) {
   if (e.from_vision_alone) {
     const WheelTolerance tol(d);
     const double miss = (d.dp - e.T_b0_b1_vision.translation()).norm();
-    if (miss > d.dp.norm() + tol.translation + kSkidSpeed * std::max(0.0, d.t1 - d.t0)) return false;
+    if (miss > d.dp.norm() + tol.translation + skidReach(d)) return false;
   }
   const bool as_good = v >= 0.98 * f;
   const bool starts =
