@@ -94,7 +94,8 @@ struct EstimatorOptions {
   // (Estimator.SlipMinInliers; threaded combined, 84.87 s: 14 of 127 matches trusted, the rest
   // walkers, made a slip).
   double slip_min_inliers = 2.0;
-  // Blind frames this soon after a slip hold the pose instead of following the wheels, s
+  // Blind frames this soon after a slip, in a blind stretch that began in it, hold the pose
+  // instead of following the wheels, s
   // (Estimator.SlipHold): a walker passing close in front during a slip blinded tracking for
   // 1.5 s, and the wheels, still spinning, took the pose 0.4 rad off (0.5 s of hold: 0.74 % of
   // the path; 2 s: 0.11 %).
