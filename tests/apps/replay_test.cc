@@ -345,9 +345,10 @@ TEST(Replay, RelocalisesWhenTheWheelsSpunWhileBlind) {
 }
 
 // A slip (8-9 s: the wheels spin, the robot stands), vision drives on for a second, then goes
-// dark (10-11.5 s) while the robot drives at 0.25 m/s. The slip is over: the wheels carry the pose
+// dark (10-11.5 s) while the robot drives at 0.26 m/s. The slip is over: the wheels carry the pose
 // through the blackout. (Holding it where vision left it, as a blackout that starts in a slip
-// does, put it 0.25 m behind: 0.54 % of the path, relocalised when vision came back.)
+// does, held it for the second left of Estimator.SlipHold, some 0.26 m behind the robot: 0.54 %
+// of the path once relocalisation had bent the stretch.)
 TEST(Replay, BlackoutAfterASlipEndedFollowsTheWheels) {
   const fs::path scenario =
       staticScenario("slip_then_blind", "Events.Slip: [8.0, 9.0]\nEvents.Blackout: [10.0, 11.5]\n");
