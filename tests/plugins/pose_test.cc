@@ -301,6 +301,23 @@ TEST(WheelsAgainstVision, SlipStartsOnClearEvidenceAndGoesOnWhileTheWheelsStillL
   EXPECT_TRUE(decideSlip(b));
   b.creeping = false;
   EXPECT_FALSE(decideSlip(b));
+  // Stalled wheels (mono's wheelsStall): as creeping ones, but only while vision alone explains
+  // 95 % of the candidates or more.
+  b = e;
+  b.vision_inliers = 100;
+  b.candidates = 105;  // 95.2 %
+  b.T_b0_b1_vision = SE2(0.097, 0.0, 0.049);
+  b.stalled = true;
+  EXPECT_TRUE(decideSlip(b));
+  b.candidates = 106;  // 94.3 %: vision alone may be the one that is wrong
+  EXPECT_FALSE(decideSlip(b));
+  b.was_slipping = true;  // nor does it keep a slip going then
+  EXPECT_FALSE(decideSlip(b));
+  b.candidates = 105;
+  EXPECT_TRUE(decideSlip(b));
+  b.vision_inliers = 97;  // fewer than 98 % of the fused pose's
+  b.candidates = 100;
+  EXPECT_FALSE(decideSlip(b));
   e.wheels = nullptr;
   EXPECT_THROW(decideSlip(e), std::invalid_argument);
 }
@@ -338,6 +355,44 @@ TEST(WheelsAgainstVision, CreepIsTheWheelsClaimBeyondBothNoisesOverAStretch) {
     // A pose vision did not pin down at all (no information): none, rather than NaN.
     EXPECT_FALSE(wheelsCreep(d, x0, Eigen::Matrix3d::Zero(), x0, sharp)) << theta;
   }
+}
+
+// Mono's stall test: the claim's dominant part (travel against 3 cm, turn against 0.05 rad), less
+// than half of it seen by vision alone, and not more than 0.3 of it backwards.
+TEST(WheelsAgainstVision, StallIsLessThanHalfTheClaimSeenOverAStretch) {
+  WheelDelta d;
+  d.dp << 0.06, 0.0;  // 0.2 s at 0.3 m/s
+  d.dphi = 0.02;
+  EXPECT_DOUBLE_EQ(stallSeen(d, SE2(0.03, 0.01, 0.0)), 0.5);  // along the claim; sideways is not seen
+  EXPECT_TRUE(wheelsStall(d, SE2(0.0, 0.0, 0.0)));            // stood
+  EXPECT_TRUE(wheelsStall(d, SE2(0.029, 0.0, 0.02)));         // crawled: 0.48 of it
+  EXPECT_FALSE(wheelsStall(d, SE2(0.03, 0.0, 0.02)));         // half of it: slowed, not stalled
+  EXPECT_FALSE(wheelsStall(d, SE2(0.06, 0.0, 0.0)));          // all of it (a turn not seen is minor)
+  EXPECT_FALSE(wheelsStall(d, SE2(0.09, 0.0, 0.02)));         // more than claimed
+  EXPECT_TRUE(wheelsStall(d, SE2(-0.0175, 0.0, 0.0)));        // 0.29 of it back: a stall's noise
+  EXPECT_FALSE(wheelsStall(d, SE2(-0.019, 0.0, 0.0)));        // more: a bump or a walker's pull
+  // A claim too small to judge against mono's noise, in travel and in turn.
+  d.dp << 0.029, 0.0;
+  d.dphi = 0.049;
+  EXPECT_FALSE(wheelsStall(d, SE2(0.0, 0.0, 0.0)));
+  // A turn on the spot, either way round: the turn is judged.
+  for (const double turn : {0.1, -0.1}) {
+    d.dp << 0.004, 0.0;
+    d.dphi = turn;
+    EXPECT_TRUE(wheelsStall(d, SE2(0.004, 0.0, 0.0))) << turn;
+    EXPECT_TRUE(wheelsStall(d, SE2(0.0, 0.0, 0.4 * turn))) << turn;
+    EXPECT_FALSE(wheelsStall(d, SE2(0.0, 0.0, 0.6 * turn))) << turn;
+    EXPECT_FALSE(wheelsStall(d, SE2(0.0, 0.0, -0.4 * turn))) << turn;  // turned the other way
+  }
+  // An arc whose turn outweighs its travel (0.2 rad / 0.05 = 4 against 4 cm / 3 cm): the turn
+  // decides, though vision saw all of the travel.
+  d.dp << 0.04, 0.0;
+  d.dphi = 0.2;
+  EXPECT_TRUE(wheelsStall(d, SE2(0.04, 0.0, 0.0)));
+  EXPECT_FALSE(wheelsStall(d, SE2(0.0, 0.0, 0.2)));
+  // No claim at all: all of it seen, never a stall.
+  EXPECT_DOUBLE_EQ(stallSeen(WheelDelta(), SE2(0.1, 0.0, 0.1)), 1.0);
+  EXPECT_FALSE(wheelsStall(WheelDelta(), SE2()));
 }
 
 // PlanarPoseResult::information, inverted, is the scatter of vision alone's pose over the pixel

@@ -243,6 +243,13 @@ struct Estimator::Impl {
   std::atomic<std::size_t> wheel_outliers{0};  // wheel edges local BA found wrong
   std::mutex slip_mutex;
   std::deque<double> slip_times;  // of those frames, since the oldest keyframe in memory
+  // Mono: vision alone's recent poses (each frame's, where it placed the frame) over the stretch
+  // wheelsStall judges, and how many frames in a row it has found the wheels stalled.
+  static constexpr double kStallStretch = 0.2;  // s: 3 cm (kStallTravel) at 0.15 m/s
+  static constexpr int kStallFrames = 5;        // a bump or a walker pulls vision alone off for
+                                                // one or two stretches, not three (mono combined)
+  std::deque<std::pair<double, Eigen::Vector3d>> vision_track;
+  int stall_run = 0;
 
   bool slipBetween(double t0, double t1) {
     std::lock_guard<std::mutex> lock(slip_mutex);
@@ -638,6 +645,11 @@ struct Estimator::Impl {
     // must be convincingly back (the first frames after a blackout carry few, poorly placed
     // matches: one such frame put the pose 6 cm off).
     const int to_place = (last_visual ? 1 : 3) * opt.min_inliers;
+    const bool track_vision = prior && rig.sensor == Sensor::kMono && !matches.empty();
+    if (!track_vision) {  // a gap in vision alone's track: it starts again
+      vision_track.clear();
+      stall_run = 0;
+    }
     if (!matches.empty()) {
       inliers = optimisePose(f, matches, prior, last_pose.vector(), &x, &inlier, &errors);
       // Slip check (rvwo::decideSlip): the wheels' motion against vision alone. When the wheels
@@ -646,12 +658,43 @@ struct Estimator::Impl {
       // is dropped for this frame. Among walkers the wheels side with the static landmarks and
       // keep the pose.
       const bool strained = prior && wheelEdgeStrained(*prior, last_pose.vector(), x);
-      if (prior && slipWorthChecking(was_slipping, strained, matches.size(), inliers)) {
-        Eigen::Vector3d x_vision = last_pose.vector();
-        std::vector<char> inlier_v;
-        std::vector<double> errors_v;
-        const int inliers_v =
-            optimisePose(f, matches, std::nullopt, last_pose.vector(), &x_vision, &inlier_v, &errors_v);
+      // Mono solves vision alone every frame: its own track shows wheels that stall (wheelsStall),
+      // which mono's counts of one frame cannot.
+      Eigen::Vector3d x_vision = last_pose.vector();
+      std::vector<char> inlier_v;
+      std::vector<double> errors_v;
+      int inliers_v = 0;
+      const auto solveVisionAlone = [&] {
+        inliers_v = optimisePose(f, matches, std::nullopt, last_pose.vector(), &x_vision, &inlier_v, &errors_v);
+      };
+      bool stalled = false;
+      if (track_vision) {
+        solveVisionAlone();
+        while (!vision_track.empty() && vision_track.front().first < t - kStallStretch - 1e-6) {
+          vision_track.pop_front();
+        }
+        if (countTrusted(inlier_v) < to_place) {
+          vision_track.clear();  // vision alone did not place this frame: the track starts again
+          stall_run = 0;
+        } else {
+          std::optional<WheelDelta> stretch;
+          if (!vision_track.empty() && t - vision_track.front().first >= 0.75 * kStallStretch) {
+            stretch = wheelDelta(vision_track.front().first, t);
+          }
+          const SE2 T_vision =
+              SE2::fromVector(vision_track.empty() ? x_vision : vision_track.front().second).inverse() *
+              SE2::fromVector(x_vision);
+          stall_run = stretch && wheelsStall(*stretch, T_vision) ? stall_run + 1 : 0;
+          vision_track.emplace_back(t, x_vision);
+        }
+        // ... and this frame too saw less than half of its own claim: a stretch over a stall's end
+        // still reads as stalled for up to half its length once the robot has driven on, and vision
+        // alone then overruled wheels that were right again (4 frames after a 1 s mono slip: 2.4 cm).
+        stalled = stall_run >= kStallFrames &&
+                  stallSeen(*delta, last_pose.inverse() * SE2::fromVector(x_vision)) < kStallRatio;
+      }
+      if (prior && (slipWorthChecking(was_slipping, strained, matches.size(), inliers) || stalled)) {
+        if (!track_vision) solveVisionAlone();
         // Counting only landmarks no label has called dynamic: a walker close by, freshly mapped,
         // once explained 376 of 422 matches and took vision alone 25 cm off in four frames.
         SlipEvidence e;
@@ -662,6 +705,7 @@ struct Estimator::Impl {
         e.vision_inliers = countTrusted(inlier_v);
         e.candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
         e.strained = strained;
+        e.stalled = stalled;
         e.was_slipping = was_slipping;
         e.from_vision_alone = was_slipping;  // the previous frame's pose was vision alone's
         // Only vision that would place the frame overrules the wheels: mono, blind in a turn among

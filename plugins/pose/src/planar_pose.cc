@@ -197,6 +197,20 @@ bool wheelsCreep(const WheelDelta& wheels, const Eigen::Vector3d& x0, const Eige
   return s < 1 && s > -0.5 && (1 - s) * (1 - s) * cc > kChi2Shortfall && off.dot(W.solve(off)) <= kChi2OffLine;
 }
 
+double stallSeen(const WheelDelta& claim, const SE2& T_b0_b1_vision) {
+  const double travel = claim.dp.norm();
+  if (travel / kStallTravel >= std::fabs(claim.dphi) / kStallTurn) {
+    return travel > 0 ? T_b0_b1_vision.translation().dot(claim.dp) / (travel * travel) : 1.0;
+  }
+  return T_b0_b1_vision.angle() / claim.dphi;
+}
+
+bool wheelsStall(const WheelDelta& stretch, const SE2& T_b0_b1_vision) {
+  if (stretch.dp.norm() < kStallTravel && std::fabs(stretch.dphi) < kStallTurn) return false;
+  const double seen = stallSeen(stretch, T_b0_b1_vision);
+  return seen >= -kStallBack && seen < kStallRatio;
+}
+
 bool wheelEdgeStrained(const WheelEdge& edge, const Eigen::Vector3d& x_prev, const Eigen::Vector3d& x) {
   return (edge.sqrtInformation() * edge.residual(x_prev, x)).squaredNorm() > kChi2WheelOutlier;
 }
@@ -223,10 +237,11 @@ bool decideSlip(const SlipEvidence& e) {
     if (miss > d.dp.norm() + tol.translation + skidReach(d)) return false;
   }
   const bool as_good = v >= 0.98 * f;
+  const bool stall = e.stalled && v >= kStallExplained * e.candidates;
   const bool starts =
-      (better || (e.creeping && as_good)) && v >= e.min_to_start && v >= 0.85 * e.candidates && slip_like;
+      (better || ((e.creeping || stall) && as_good)) && v >= e.min_to_start && v >= 0.85 * e.candidates && slip_like;
   const bool goes_on =
-      e.was_slipping && v >= e.min_to_go_on && as_good && slip_like && (disagree || e.strained || e.creeping);
+      e.was_slipping && v >= e.min_to_go_on && as_good && slip_like && (disagree || e.strained || e.creeping || stall);
   return starts || goes_on;
 }
 

@@ -119,6 +119,25 @@ bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
 bool wheelsCreep(const WheelDelta& wheels, const Eigen::Vector3d& x0, const Eigen::Matrix3d& information0,
                  const Eigen::Vector3d& x1, const Eigen::Matrix3d& information1);
 
+// The part of the wheels' claim vision alone saw (1: all of it, 0: none, negative: the other
+// way): along the claimed travel, or of the claimed turn, whichever the claim holds more of against
+// what wheelsStall judges (kStallTravel, kStallTurn); 1 for no claim at all.
+double stallSeen(const WheelDelta& claim, const SE2& T_b0_b1_vision);
+
+// Wheels that stall (mono's creep test): over a stretch of a few frames the wheels claimed a
+// travel or a turn well beyond what one mono frame's noise hides (kStallTravel, kStallTurn), and
+// vision alone's own poses at the stretch's ends saw less than half of it (stallSeen: the robot
+// stood or crawled while the wheels went on) and no more than kStallBack of it backwards (walkers
+// and bumps pull vision alone both ways; a stalled robot stands still). Mono's vision weighs
+// little along its optical axis against the wheel edge, so the fused pose follows such wheels
+// frame by frame and the counts of a frame cannot tell: a 1 s slip under a static mono scene was
+// caught 0.6 s late, 15 cm on. Its pose noise and the map's scale (the wheels', to a few percent)
+// are too large for wheelsCreep's 3 % bar; a stall is the far end of a creep, where they do not
+// matter. T_b0_b1_vision: vision alone's motion over the stretch the wheels' delta covers.
+constexpr double kStallTravel = 0.03, kStallTurn = 0.05;  // m, rad: the least claim judged
+constexpr double kStallRatio = 0.5, kStallBack = 0.3;     // of the claim
+bool wheelsStall(const WheelDelta& stretch, const SE2& T_b0_b1_vision);
+
 // Everything the slip decision weighs for one frame: the pose solved with the wheel edge (fused)
 // and again without it (vision alone, started at the edge's first pose).
 struct SlipEvidence {
@@ -130,6 +149,7 @@ struct SlipEvidence {
   int fused_inliers = 0, vision_inliers = 0, candidates = 0;
   bool strained = false;      // the wheel edge beyond kChi2WheelOutlier at the fused pose
   bool creeping = false;      // wheelsCreep over the last stretch vision alone tracked
+  bool stalled = false;       // mono: wheelsStall over the last stretches vision alone tracked
   bool was_slipping = false;  // the last decision was a slip (the previous frame's; in ORB-SLAM3,
                               // which solves a frame twice, the frame's first solve's)
   // Vision-alone inliers a slip needs to start, and to go on (at least what places a frame).
@@ -154,6 +174,11 @@ bool slipWorthChecking(bool was_slipping, bool strained, std::size_t matches, in
 // little each frame, never far enough to cost 30 % of the inliers; among walkers vision alone gained
 // at most 4 % (measured in the estimator). Creeping wheels start a slip, or keep one going, when
 // vision alone explains about as much as the fused pose (98 %): the creep costs no inliers.
+// Stalled wheels (mono) do too, when vision alone also explains nearly every candidate
+// (kStallExplained): where mono's vision alone, confidently wrong on a map a slip or bumps bent,
+// saw the robot stand while it drove (threaded mono combined), it left 7 to 21 % of them out; in
+// a stall under a static scene 1 to 3 %.
+constexpr double kStallExplained = 0.95;
 bool decideSlip(const SlipEvidence& e);
 
 }  // namespace rvwo
