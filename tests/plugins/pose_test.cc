@@ -202,6 +202,17 @@ TEST(WheelsAgainstVision, SlipIsWheelsClaimingMotionVisionDidNotSee) {
   EXPECT_FALSE(looksLikeSlip(d, SE2(0.1, -0.2, 0.0)));
   d.t1 = 1.0;
   EXPECT_TRUE(looksLikeSlip(d, SE2(0.1, -0.2, 0.0)));
+  // Vision alone missing the claim by more than the claim, the tolerance and a skid: more than a
+  // slip starting now explains. 1 cm claimed over 1/30 s: 1 + 0.92 + 1 cm = 2.92 cm of miss at most.
+  WheelDelta frame = d;
+  frame.dp << 0.01, 0.0;
+  frame.t1 = 1.0 / 30.0;
+  EXPECT_FALSE(missBeyondTheClaim(frame, SE2(0.0, 0.0, 0.0)));     // stood: misses the claim
+  EXPECT_FALSE(missBeyondTheClaim(frame, SE2(-0.019, 0.0, 0.0)));  // 2.9 cm
+  EXPECT_TRUE(missBeyondTheClaim(frame, SE2(-0.0195, 0.0, 0.0)));  // 2.95 cm
+  EXPECT_TRUE(missBeyondTheClaim(frame, SE2(0.01, 0.03, 0.0)));    // 3 cm sideways
+  frame.t1 = 1.0;                                                  // over a second a skid goes 30 cm
+  EXPECT_FALSE(missBeyondTheClaim(frame, SE2(0.01, 0.03, 0.0)));
   // A turn on the spot claimed, none seen.
   WheelDelta spin = d;
   spin.dp.setZero();

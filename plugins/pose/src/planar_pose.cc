@@ -158,6 +158,11 @@ bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   return sideways <= sp + kMaxSideways + skidReach(wheels);
 }
 
+bool missBeyondTheClaim(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
+  const double miss = (wheels.dp - T_b0_b1_vision.translation()).norm();
+  return miss > wheels.dp.norm() + WheelTolerance(wheels).translation + skidReach(wheels);
+}
+
 bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   const WheelTolerance tol(wheels);
   return (wheels.dp - T_b0_b1_vision.translation()).norm() > tol.translation ||
@@ -231,11 +236,7 @@ bool decideSlip(const SlipEvidence& e) {
   // side: vision alone misses their claim by at most the claim (the robot stood) and a skid.
   // Without semantics, walkers took vision alone 4-5 cm back a frame for six frames while the
   // wheels claimed 4 mm forward (dynamic, 2.0 s).
-  if (e.from_vision_alone) {
-    const WheelTolerance tol(d);
-    const double miss = (d.dp - e.T_b0_b1_vision.translation()).norm();
-    if (miss > d.dp.norm() + tol.translation + skidReach(d)) return false;
-  }
+  if (e.from_vision_alone && missBeyondTheClaim(d, e.T_b0_b1_vision)) return false;
   const bool as_good = v >= 0.98 * f;
   const bool stall = e.stalled && v >= kStallExplained * e.candidates;
   const bool starts =

@@ -103,6 +103,11 @@ bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
 // Whether vision's motion differs from the wheels' beyond their tolerance.
 bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
 
+// Whether vision alone misses the wheels' claim by more than the claim itself, their tolerance and
+// a skid (0.3 m/s over the delta): more than a slip that starts with this delta explains (the robot
+// stood, or skidded), so the frames before must have taken the wheels' side.
+bool missBeyondTheClaim(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
+
 // Wheels that creep: each frame's claim within their tolerance (a few millimetres too many, as a
 // slow skid makes), but over a stretch the robot went a clearly shortened way along the arc they
 // claimed (slowed or stopped while they went on): vision alone's motion is s times their claim,
