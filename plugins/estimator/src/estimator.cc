@@ -718,8 +718,8 @@ struct Estimator::Impl {
         // says the frames before took the wheels' side; so strong a claim needs vision that places
         // the frame firmly. Among bumps, mono's vision alone on 55-78 trusted landmarks put single
         // frames 9-17 cm back while the wheels claimed 1 cm on; each such slip cost the map that
-        // much (threaded mono combined, 41-43 s: 5 of 10 runs lost 6-12 % of the travel over
-        // 40-45 s; with this bar none of 10 lost 1 %). Slips caught late had 141-278.
+        // much (threaded mono combined, 41-43 s: 6 of 16 runs lost 6-12 % of the travel over
+        // 40-45 s; with this bar 1 of 16, 8.6 %). Slips caught late had 141-278.
         if (track_vision && !was_slipping && missBeyondTheClaim(*delta, e.T_b0_b1_vision)) {
           e.min_to_start = std::max(e.min_to_start, 5 * opt.min_inliers);
         }
