@@ -677,14 +677,14 @@ struct Estimator::Impl {
           vision_track.clear();  // vision alone did not place this frame: the track starts again
           stall_run = 0;
         } else {
-          std::optional<WheelDelta> stretch;
+          bool stall = false;
           if (!vision_track.empty() && t - vision_track.front().first >= 0.75 * kStallStretch) {
-            stretch = wheelDelta(vision_track.front().first, t);
+            if (const std::optional<WheelDelta> stretch = wheelDelta(vision_track.front().first, t)) {
+              const SE2 T_vision = SE2::fromVector(vision_track.front().second).inverse() * SE2::fromVector(x_vision);
+              stall = wheelsStall(*stretch, T_vision);
+            }
           }
-          const SE2 T_vision =
-              SE2::fromVector(vision_track.empty() ? x_vision : vision_track.front().second).inverse() *
-              SE2::fromVector(x_vision);
-          stall_run = stretch && wheelsStall(*stretch, T_vision) ? stall_run + 1 : 0;
+          stall_run = stall ? stall_run + 1 : 0;
           vision_track.emplace_back(t, x_vision);
         }
         // ... and this frame too saw less than half of its own claim: a stretch over a stall's end
