@@ -96,6 +96,43 @@ void WheelPreintegrator::integrate(const Eigen::Vector2d& dp, double dphi, const
   if (B_out) *B_out = B;
 }
 
+WheelDelta WheelDelta::recalibrated(const WheelCalibration& c) const {
+  WheelDelta out = *this;
+  const Eigen::Vector3d v = at(c);
+  out.dp = v.head<2>();
+  out.dphi = v.z();
+  out.calibration = c;
+  return out;
+}
+
+WheelDelta compose(const WheelDelta& a, const WheelDelta& b) {
+  if (!(std::fabs(a.t1 - b.t0) <= 1e-9 * std::max(1.0, std::fabs(a.t1)))) {
+    throw std::invalid_argument("compose: the deltas do not meet (the first ends at t=" + str(a.t1) +
+                                ", the second starts at t=" + str(b.t0) + ")");
+  }
+  if (a.calibration != b.calibration) {
+    throw std::invalid_argument(
+        "compose: the deltas were integrated with different calibrations (recalibrated() first)");
+  }
+  const Eigen::Matrix2d R = rotation2(a.dphi);
+  const Eigen::Vector2d Rdp = R * b.dp;
+  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
+  A.block<2, 1>(0, 2) = perp(Rdp);
+  Eigen::Matrix3d B = Eigen::Matrix3d::Identity();
+  B.block<2, 2>(0, 0) = R;
+  WheelDelta out;
+  out.t0 = a.t0;
+  out.t1 = b.t1;
+  out.dp = a.dp + Rdp;
+  out.dphi = a.dphi + b.dphi;
+  out.covariance = A * a.covariance * A.transpose() + B * b.covariance * B.transpose();
+  out.distance = a.distance + b.distance;
+  out.rotation = a.rotation + b.rotation;
+  out.calibration = a.calibration;
+  out.d_calibration = A * a.d_calibration + B * b.d_calibration;
+  return out;
+}
+
 WheelOdometry::WheelOdometry(const WheelNoise& noise, const SE2& T_b_o) : noise_(noise), T_b_o_(T_b_o) {
   noise_.validate();
 }

@@ -2,7 +2,7 @@
 // Wheel preintegration (eqs. 11 to 13) and the wheel edge (eq. 14): step and edge Jacobians
 // against central differences, propagated covariance against Monte Carlo for straight, arc and
 // spin-in-place motion (pose readings and wheel encoders), rate independence, the odometry
-// extrinsic, splitting readings at frame times, and bad input.
+// extrinsic, splitting readings at frame times, deltas composed, and bad input.
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -421,6 +421,93 @@ TEST(WheelOdometry, BadInputGetsClearErrors) {
   WheelNoise n;
   n.sigma_x = -1;
   EXPECT_THROW(WheelOdometry{n}, std::invalid_argument);
+}
+
+// Encoders on a random drive (forward, turns both ways, a spin on the spot) at 50 Hz, with the
+// odometry frame off the body's: for compose() below.
+WheelOdometry randomEncoderDrive(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  WheelOdometry odo(WheelNoise{}, SE2(0.1 * u(rng), 0.05 * u(rng), 0.3 * u(rng)));
+  const DiffDriveParams drive;
+  double ql = 0, qr = 0;
+  for (int k = 0; k <= 200; ++k) {
+    odo.addWheelAngles(0.02 * k, ql, qr, drive);
+    const bool spin = k >= 120 && k < 150;
+    const double forward = spin ? 0.0 : 0.3 + 0.2 * u(rng), turn = spin ? 0.4 : 0.15 * u(rng);
+    ql += forward - turn;
+    qr += forward + turn;
+  }
+  return odo;
+}
+
+TEST(WheelDelta, ComposedAtReadingTimesIsIntegratingThrough) {
+  std::mt19937_64 rng(34);
+  std::uniform_real_distribution<double> u(-1, 1);
+  double worst_mean = 0, worst_cov = 0, worst_jac = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    const WheelOdometry odo = randomEncoderDrive(rng);
+    const WheelCalibration c =
+        trial % 2 ? WheelCalibration(0.02 * u(rng), 0.02 * u(rng), 0.05 * u(rng)) : WheelCalibration::Zero();
+    // Cuts at reading times (0.02 s apart), the whole 4 s in four to six deltas.
+    std::vector<double> cuts = {0.0};
+    while (cuts.back() < 3.4) cuts.push_back(cuts.back() + 0.02 * (20 + trial % 7 * 5));
+    cuts.push_back(4.0);
+    WheelDelta chain = odo.integrate(cuts[0], cuts[1], c);
+    for (std::size_t k = 2; k < cuts.size(); ++k) chain = compose(chain, odo.integrate(cuts[k - 1], cuts[k], c));
+    const WheelDelta whole = odo.integrate(0.0, 4.0, c);
+    EXPECT_EQ(chain.t0, 0.0);
+    EXPECT_EQ(chain.t1, 4.0);
+    worst_mean = std::max(worst_mean, (chain.at(c) - whole.at(c)).norm());
+    worst_cov = std::max(worst_cov, relativeError(chain.covariance, whole.covariance));
+    worst_jac = std::max(worst_jac, relativeError(chain.d_calibration, whole.d_calibration));
+    EXPECT_NEAR(chain.distance, whole.distance, 1e-12);
+    EXPECT_NEAR(chain.rotation, whole.rotation, 1e-12);
+    EXPECT_EQ(chain.calibration, c);
+  }
+  EXPECT_LT(worst_mean, 1e-12);
+  EXPECT_LT(worst_cov, 1e-12);
+  EXPECT_LT(worst_jac, 1e-12);
+}
+
+TEST(WheelDelta, ComposedInsideAReadingDiffersOnlyByTheSplitReadingsNoise) {
+  std::mt19937_64 rng(35);
+  const WheelOdometry odo = randomEncoderDrive(rng);
+  const WheelDelta whole = odo.integrate(0.3, 3.7);
+  double worst_cov = 0;
+  for (const double cut : {0.511, 1.337, 2.401, 2.9999, 3.12}) {  // inside readings (the spin too)
+    const WheelDelta chain = compose(odo.integrate(0.3, cut), odo.integrate(cut, 3.7));
+    // The mean splits along the reading's constant-twist arc: exact.
+    EXPECT_LT((chain.at(WheelCalibration::Zero()) - whole.at(WheelCalibration::Zero())).norm(), 1e-12) << cut;
+    EXPECT_LT(relativeError(chain.d_calibration, whole.d_calibration), 1e-3) << cut;
+    worst_cov = std::max(worst_cov, relativeError(chain.covariance, whole.covariance));
+  }
+  EXPECT_GT(worst_cov, 1e-9);  // the split reading's lever arm: not exact...
+  EXPECT_LT(worst_cov, 0.02);  // ...but close
+}
+
+TEST(WheelDelta, RecalibratedThenComposedIsIntegratingAtTheNewCalibration) {
+  std::mt19937_64 rng(36);
+  const WheelOdometry odo = randomEncoderDrive(rng);
+  const WheelCalibration c1(0.01, -0.02, 0.04);
+  EXPECT_THROW(compose(odo.integrate(0.2, 1.6, c1), odo.integrate(1.6, 3.8)), std::invalid_argument);  // calibrations
+  EXPECT_THROW(compose(odo.integrate(0.2, 1.6, c1), odo.integrate(1.62, 3.8, c1)), std::invalid_argument);  // a gap
+  // Two deltas integrated with calibrations of their own, both moved to c2 and composed: off the
+  // integration at c2 by second-order terms only (halving the changes quarters the error), where
+  // leaving them at their own would be first-order off.
+  double error[2];
+  for (int half = 0; half < 2; ++half) {
+    const double s = half ? 0.5 : 1.0;
+    const WheelCalibration ca = c1 + s * WheelCalibration(2e-3, -1e-3, 3e-3);
+    const WheelCalibration cb = c1 + s * WheelCalibration(-2e-3, 3e-3, -4e-3);
+    const WheelDelta a = odo.integrate(0.2, 1.6, ca), b = odo.integrate(1.6, 3.8, cb);
+    const WheelDelta ab = compose(a.recalibrated(c1), b.recalibrated(c1));
+    const WheelDelta truth = odo.integrate(0.2, 3.8, c1);
+    EXPECT_EQ(ab.calibration, c1);
+    error[half] = (ab.at(c1) - truth.at(c1)).norm();
+    EXPECT_GT((compose(a, b.recalibrated(ca)).at(ca) - truth.at(c1)).norm(), 20 * error[half]);
+  }
+  EXPECT_LT(error[0], 1e-4);
+  EXPECT_NEAR(error[0] / error[1], 4.0, 0.5);
 }
 
 TEST(WheelOdometry, DropBeforeBoundsMemory) {
