@@ -96,11 +96,16 @@ struct Circle {
   WheelInput wheels;
   MapPoint* fused = nullptr;
 
+  // How the wheels' readings reach the plugin: none, all before the loop, or as tracking gives
+  // them (each keyframe's, then its frame tracked, which drops readings over 20 s old, and its
+  // local map).
+  enum Readings { kNone, kAll, kAsTracked };
   // vision_sigma: what vision's relative poses claim (m and rad alike), else the default.
-  explicit Circle(bool with_readings, double vision_sigma = 0, bool essential_graph = true) {
+  explicit Circle(Readings with_readings, double vision_sigma = 0, bool essential_graph = true) {
     WheelInputParams p;
     p.T_b_c = T_b_c;
     p.essential_graph = essential_graph;
+    p.calibrate = false;  // the local maps below have no points to learn it from
     if (vision_sigma > 0) p.graph_sigma_xy = p.graph_sigma_yaw = vision_sigma;
     wheels.configure(p);
     std::vector<WheelReading> readings;
@@ -108,7 +113,7 @@ struct Circle {
       const SE2 x = drive(0.01 * k);
       readings.push_back(WheelReading::pose(0.01 * k, x.translation().x(), x.translation().y(), x.angle()));
     }
-    if (with_readings) wheels.add(readings);
+    if (with_readings == kAll) wheels.add(readings);
 
     std::mt19937_64 rng(3);
     std::normal_distribution<double> g(0, 1);
@@ -137,6 +142,24 @@ struct Circle {
         kf.weights[kfs[k - d].get()] = d < 3 ? 200 : 50;
         kfs[k - d]->weights[&kf] = d < 3 ? 200 : 50;
       }
+    }
+    if (with_readings == kAsTracked) {
+      std::size_t r = 0;
+      for (int k = 0; k < kKeyFrames; ++k) {
+        std::vector<WheelReading> since;
+        for (; r < readings.size() && readings[r].t <= kfs[k]->mTimeStamp + 1e-9; ++r) since.push_back(readings[r]);
+        wheels.add(since);
+        wheels.frameTracked(kfs[k]->mTimeStamp, true, 1000);
+        if (k == 0) continue;
+        rvwo::orbslam3::LocalMapProblem local;
+        for (int j : {k - 1, k})
+          local.keyframes.push_back({kfs[j]->mnId, kfs[j]->mTimeStamp, drifted[j], j < k, 500, 500, 320, 240, 40});
+        local.scale_factor = 1.2;
+        rvwo::orbslam3::LocalMapSolution solution;
+        EXPECT_TRUE(wheels.optimiseLocalMap(local, &solution));
+        EXPECT_EQ(solution.wheel_edges, 1) << k;
+      }
+      EXPECT_FALSE(wheels.covers(0.0, 19.0));  // the readings kept: the last 20 s
     }
     // The loop: 80 seen from 0 where it truly is; its neighbours moved with it.
     const Eigen::Isometry3d T_c80_w = cameraPose(drive(0.5 * kCurrent), T_b_c);
@@ -197,7 +220,7 @@ TEST(EssentialGraph, WheelsAndVisionShareTheLoopsCorrectionByTheirCovariances) {
   // claims 5 cm and 50 mrad a keyframe leaves the shape to the wheels, which saw it as it was:
   // even a scale error, which a loop cannot see, goes.
   for (const double vision_sigma : {0.0, 0.05}) {
-    Circle with(true, vision_sigma), without(false, vision_sigma);
+    Circle with(Circle::kAll, vision_sigma), without(Circle::kNone, vision_sigma);
     double rms0, yaw0, off0;
     with.errors(&rms0, &yaw0, &off0);
     ASSERT_GT(rms0, 0.08);  // the drift the loop corrects
@@ -225,8 +248,27 @@ TEST(EssentialGraph, WheelsAndVisionShareTheLoopsCorrectionByTheirCovariances) {
   }
 }
 
+TEST(EssentialGraph, KeyframesKeepTheirWheelsAfterTheReadingsAreDropped) {
+  // Tracking keeps the last 20 s of readings; each keyframe's delta from the one before, taken
+  // when its local map was solved, stays for the whole map. The loop's graph then has wheel edges
+  // around the whole circle, as with every reading kept, and leaves the shape to them as there.
+  for (const double vision_sigma : {0.0, 0.05}) {
+    Circle tracked(Circle::kAsTracked, vision_sigma), all(Circle::kAll, vision_sigma);
+    ASSERT_TRUE(tracked.close());
+    ASSERT_TRUE(all.close());
+    double rms_t, yaw_t, off_t, rms_a, yaw_a, off_a;
+    tracked.errors(&rms_t, &yaw_t, &off_t);
+    all.errors(&rms_a, &yaw_a, &off_a);
+    EXPECT_NEAR(rms_t, rms_a, 1e-6) << vision_sigma;
+    EXPECT_NEAR(yaw_t, yaw_a, 1e-6) << vision_sigma;
+    for (int k = 0; k < Circle::kKeyFrames; ++k)
+      EXPECT_LT((tracked.kfs[k]->pose.t - all.kfs[k]->pose.t).norm(), 1e-5f) << vision_sigma << " " << k;
+    if (vision_sigma > 0) EXPECT_LT(rms_t, 0.01);
+  }
+}
+
 TEST(EssentialGraph, PointsMoveWithTheirReferenceKeyframe) {
-  Circle circle(true);
+  Circle circle(Circle::kAll);
   // Each point in its reference keyframe's camera, from the pose the graph starts at (the
   // corrected one near the loop); the fused point in the loop's reference, keyframe 78.
   std::vector<Eigen::Vector3d> in_camera;
@@ -247,7 +289,7 @@ TEST(EssentialGraph, PointsMoveWithTheirReferenceKeyframe) {
 }
 
 TEST(EssentialGraph, LeftToOrbSlam3WhenOffOrNotPlanar) {
-  Circle off(true, 0, false), rig(true);
+  Circle off(Circle::kAll, 0, false), rig(Circle::kAll);
   rig.kfs[Circle::kCurrent]->mpCamera2 = &rig;  // two cameras: ORB-SLAM3's own
   const Pose p = off.kfs[40]->pose;
   EXPECT_FALSE(off.close());

@@ -340,6 +340,68 @@ TEST(WheelInputGlobalMap, AKeyframeNothingPlacesFollowsItsParent) {
     EXPECT_EQ(scene.kfs[k]->mnBAGlobalForKF, k == Scene::kBlind ? 0ul : 11ul) << k;
 }
 
+TEST(WheelInputGlobalMap, KeyframesKeepTheirWheelsForTheWholeMap) {
+  // 60 s on a gentle S (0.5 m/s), readings at 100 Hz as tracking gives them (it keeps the last
+  // 20 s), a keyframe a second, each first seen in its local map; one (30.5 s) first seen only
+  // after the next one's. After a loop at 60 s the global problem, every keyframe but the first
+  // free and 0.4 m off, has a wheel edge between each pair consecutive in time: the chain of
+  // keyframes outlives the readings. Wheel edges alone then put every keyframe on the drive.
+  const Eigen::Isometry3d T_b_c = tiltedCamera();
+  WheelInputParams p;
+  p.T_b_c = T_b_c;
+  p.calibrate = false;
+  WheelInput wheels;
+  wheels.configure(p);
+  const auto truth = [](double t) {
+    return rvwo::SE2(0.5 * t, 1.5 * std::sin(0.1 * t), std::atan(0.3 * std::cos(0.1 * t)));
+  };
+  const auto problem = [&](const std::vector<double>& t, int fixed, double off) {
+    rvwo::orbslam3::LocalMapProblem pb;
+    pb.scale_factor = 1.2;
+    for (std::size_t k = 0; k < t.size(); ++k)
+      pb.keyframes.push_back({k, t[k], cameraPose(truth(t[k]) * (k ? rvwo::SE2(off, -off, 0) : rvwo::SE2()), T_b_c),
+                              static_cast<int>(k) < fixed, 400, 400, 319.5, 239.5, 48});
+    return pb;
+  };
+  rvwo::orbslam3::LocalMapSolution solution;
+  for (int i = 0; i <= 6000; ++i) {
+    const double t = 0.01 * i;
+    const rvwo::SE2 x = truth(t);
+    wheels.add({WheelReading::pose(t, x.translation().x(), x.translation().y(), x.angle())});
+    if (i % 10) continue;
+    wheels.frameTracked(t, true, 1000);
+    if (i % 100 || i == 0) continue;
+    const double s = std::round(t);
+    ASSERT_TRUE(wheels.optimiseLocalMap(problem({s - 1, s}, 1, 0), &solution));
+    EXPECT_EQ(solution.wheel_edges, 1) << t;
+    if (s == 32) {  // 30.5 s first seen now, between 30 and 31 (both seen before)
+      ASSERT_TRUE(wheels.optimiseLocalMap(problem({30, 30.5, 31}, 1, 0), &solution));
+      EXPECT_EQ(solution.wheel_edges, 2);
+    }
+  }
+  ASSERT_FALSE(wheels.covers(30, 41));  // the readings kept: from 40 s on
+  std::vector<double> t;
+  for (int k = 0; k <= 60; ++k) {
+    t.push_back(k);
+    if (k == 30) t.push_back(30.5);
+  }
+  const rvwo::orbslam3::LocalMapProblem global = problem(t, 1, 0.3);
+  ASSERT_TRUE(wheels.optimiseLocalMap(global, &solution));
+  EXPECT_EQ(solution.wheel_edges, static_cast<int>(t.size()) - 1);
+  for (std::size_t k = 1; k < t.size(); ++k) {
+    EXPECT_TRUE(solution.placed[k]) << t[k];
+    double off_plane = 1;
+    const rvwo::SE2 e = truth(t[k]).inverse() * rvwo::test::robotOf(solution.T_c_w[k], T_b_c, &off_plane);
+    EXPECT_LT(e.translation().norm(), 1e-4) << t[k];
+    EXPECT_LT(std::fabs(e.angle()), 1e-5) << t[k];
+  }
+  // A keyframe never seen while the readings covered it has no wheel edge, to or from it.
+  t.push_back(10.25);
+  std::sort(t.begin(), t.end());
+  ASSERT_TRUE(wheels.optimiseLocalMap(problem(t, 1, 0.3), &solution));
+  EXPECT_EQ(solution.wheel_edges, static_cast<int>(t.size()) - 1 - 2);
+}
+
 TEST(WheelInputLocalMap, ConcurrentWithTracking) {
   // ORB-SLAM3's local mapping thread solves local maps while tracking adds readings, predicts and
   // reports frames (run under ThreadSanitizer by scripts/test.sh).

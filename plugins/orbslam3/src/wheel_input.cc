@@ -83,7 +83,8 @@ struct WheelInput::Impl {
   std::size_t slip_frames = 0;
   // Where the wheels were overruled, (from, to] on the camera's clock: a wheel edge of the local
   // map across one gets a Huber kernel (it measured motion that did not happen). A creep counts
-  // from the start of the stretch that showed it.
+  // from the start of the stretch that showed it. Kept, as the chain of keyframes is (16 bytes a
+  // slip, consecutive frames merged).
   std::deque<std::pair<double, double>> slipped;
   void markSlip(double from, double to) {
     if (!slipped.empty() && from <= slipped.back().second) {
@@ -101,23 +102,62 @@ struct WheelInput::Impl {
   bool covers(double ti, double tj) const {
     return !odometry.empty() && ti <= tj && odometry.firstTime() <= ti && tj <= odometry.lastTime();
   }
+  // The wheels between keyframes, kept for the whole run: chain[t] is the delta from the keyframe
+  // before t in time (any map's, culled or not) to keyframe t, none where the readings did not
+  // cover that stretch. Taken where a keyframe is first seen in a problem (its local map, a few
+  // seconds after tracking made it), it outlives the readings (20 to 60 s), so that the global
+  // BA and the essential graph after a loop have wheel edges over the whole map, not only its
+  // last 20 s. About 300 bytes a keyframe. Under the mutex.
+  std::map<double, std::optional<WheelDelta>> chain;
+  void remember(const std::vector<double>& t) {
+    for (const double tk : t) {
+      if (chain.count(tk) || !covers(tk, tk)) continue;
+      const auto next = chain.upper_bound(tk);
+      std::optional<WheelDelta> from_before;
+      if (next != chain.begin()) {
+        const double before = std::prev(next)->first;
+        if (covers(before, tk)) from_before = integrate(before, tk);
+      }
+      // The keyframe after it was seen first (its local map came before this one's): its stretch
+      // now starts here. Readings cover it: they reach from tk to the last frame.
+      if (next != chain.end()) next->second = integrate(tk, next->first);
+      chain.emplace(tk, from_before);
+    }
+  }
+  // The wheels from keyframe ta to keyframe tb through the chain, at the current calibration.
+  std::optional<WheelDelta> chained(double ta, double tb) const {
+    auto it = chain.find(ta);
+    const auto end = chain.find(tb);
+    if (it == chain.end() || end == chain.end() || !(tb > ta)) return std::nullopt;
+    std::optional<WheelDelta> sum;
+    while (it != end) {
+      ++it;
+      if (!it->second) return std::nullopt;
+      const WheelDelta d = it->second->recalibrated(calibration);
+      sum = sum ? compose(*sum, d) : d;
+    }
+    return sum;
+  }
+
   // Wheel edges between keyframes consecutive in time (eq. 14), keyframe k at t[k]: one end at
-  // least free, at most max_wheel_span apart, covered by the readings kept. Under the mutex.
+  // least free, at most max_wheel_span apart, from the readings kept or else the chain. Under
+  // the mutex.
   struct Span {
     std::size_t a, b;
     WheelDelta delta;
     bool slipped;
   };
-  std::vector<Span> wheelSpans(const std::vector<double>& t, const std::vector<char>& fixed) const {
+  std::vector<Span> wheelSpans(const std::vector<double>& t, const std::vector<char>& fixed) {
+    remember(t);
     std::vector<std::size_t> order(t.size());
     for (std::size_t k = 0; k < t.size(); ++k) order[k] = k;
     std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return t[a] < t[b]; });
     std::vector<Span> spans;
     for (std::size_t k = 0; k + 1 < order.size(); ++k) {
       const std::size_t a = order[k], b = order[k + 1];
-      if ((fixed[a] && fixed[b]) || !(t[b] > t[a]) || t[b] - t[a] > params.max_wheel_span || !covers(t[a], t[b]))
-        continue;
-      spans.push_back({a, b, integrate(t[a], t[b]), slipBetween(t[a], t[b])});
+      if ((fixed[a] && fixed[b]) || !(t[b] > t[a]) || t[b] - t[a] > params.max_wheel_span) continue;
+      std::optional<WheelDelta> delta = covers(t[a], t[b]) ? integrate(t[a], t[b]) : chained(t[a], t[b]);
+      if (delta) spans.push_back({a, b, *delta, slipBetween(t[a], t[b])});
     }
     return spans;
   }
@@ -326,12 +366,11 @@ void WheelInput::frameTracked(double t, bool visual, int features) {
   m.slip_frames += solved && m.solved.slip;
   // Predictions start at the last frame, wheel edges at the last visual one, the local map's at
   // keyframes up to max_wheel_span apart, among the last kKeepForLocalMap seconds' (older ones
-  // are held fixed there, or seen again after a loop: their wheel edges would span minutes).
+  // are held fixed there; after a loop their wheel edges come from the chain of keyframes).
   // Memory stays bounded: at most a minute of readings.
   constexpr double kKeepForLocalMap = 20.0;  // s
   const double keep = m.anchor.set ? std::min(t - kKeepForLocalMap, m.anchor.t - 1.0) : t - kKeepForLocalMap;
   m.odometry.dropBefore(std::max(t - 60.0, keep));
-  while (!m.slipped.empty() && m.slipped.front().second < t - 60.0) m.slipped.pop_front();
   m.blind = !visual && features < m.params.min_features;
   if (visual) {
     m.run = 0;

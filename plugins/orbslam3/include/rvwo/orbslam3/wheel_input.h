@@ -249,12 +249,15 @@ class WheelInput {
   bool optimisesLocalMaps() const;
   // The local map on SE(2). Safe to call from ORB-SLAM3's local mapping thread while tracking
   // calls the rest. stop: ORB-SLAM3's abort flag, read between iterations (the state reached is
-  // kept). False (nothing written) when optimisesLocalMaps() is false.
+  // kept). False (nothing written) when optimisesLocalMaps() is false. Wheel edges come from the
+  // readings kept (the last 20 s or more) or, beyond them, from each keyframe's delta from the
+  // one before it in time, taken when a problem (its local map) first had it: the global BA and
+  // the essential graph after a loop have them over the whole map.
   bool optimiseLocalMap(const LocalMapProblem& problem, LocalMapSolution* solution, const bool* stop = 0);
   // Whether optimiseEssentialGraph answers (optimisesLocalMaps() and LoopClosing.Planar).
   bool optimisesEssentialGraphs() const;
   // The essential graph on SE(2): vision's relative poses (information from graph_sigma_*) and the
-  // wheel edges between keyframes consecutive in time that the readings still cover, so that the
+  // wheel edges between keyframes consecutive in time (as in optimiseLocalMap), so that the
   // loop's correction goes where vision and the wheels together are least sure. Safe to call from
   // ORB-SLAM3's loop closing thread. False (nothing written) when optimisesEssentialGraphs() is false.
   bool optimiseEssentialGraph(const EssentialGraph& graph, EssentialGraphSolution* solution);
