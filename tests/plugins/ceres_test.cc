@@ -1,9 +1,11 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 // Ceres adapters: the loss agrees with the core to the last bit; GradientChecker passes on every
 // cost; a robust 2-D registration with 40 % gross outliers; the planar bundle adjustment
-// recovers the truth (noise-free) or lands within 3 sigma of it (noisy).
+// recovers the truth (noise-free) or lands within 3 sigma of it (noisy); the odometry's
+// calibration priors over a run of BAs.
 #include <ceres/ceres.h>
 #include <ceres/gradient_checker.h>
+#include <ceres/normal_prior.h>
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -250,6 +252,45 @@ TEST(CeresPlanarBA, NoisyWithinThreeSigma) {
   // The solver did the work: it converged and reduced the cost by orders of magnitude.
   EXPECT_EQ(s.summary.termination_type, ceres::CONVERGENCE);
   EXPECT_LT(s.summary.final_cost, 1e-2 * s.summary.initial_cost);
+}
+
+// A run of local BAs, each with weak, unbiased information on the odometry's calibration (a
+// window with few turns): the estimate they hand on converges to the truth. With the prior around
+// zero counted in every BA (first each time), it settles short of it, at H / (H + 1/sigma^2).
+// Returns the estimate after `windows` BAs; `every` adds the zero prior to every one.
+Eigen::Vector3d calibrationAfter(int windows, const Eigen::Vector3d& truth, bool every) {
+  const Eigen::Vector3d sigma(0.05, 0.05, 0.2), step(0.003, 0.003, 0.005);
+  const Eigen::Vector3d data_sigma(0.03, 0.03, 0.05);  // one window's information on c (H)
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int w = 0; w < windows; ++w) {
+    const Eigen::Vector3d before = c;
+    ceres::Problem problem;
+    problem.AddResidualBlock(
+        new ceres::NormalPrior(ceres::Matrix(data_sigma.cwiseInverse().asDiagonal()), ceres::Vector(truth)), nullptr,
+        c.data());
+    ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), sigma, step, before, every || w == 0);
+    ceres::Solver::Options so;
+    so.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    EXPECT_TRUE(summary.IsSolutionUsable());
+  }
+  return c;
+}
+
+TEST(CeresWheelCalibration, TheNominalPriorCountsOnceSoARunOfWindowsReachesTheTruth) {
+  const Eigen::Vector3d truth(0.004, -0.0196, -0.049);  // the suite's wheels (turn scale 1/1.02)
+  const Eigen::Vector3d once = calibrationAfter(1500, truth, false);
+  const Eigen::Vector3d every = calibrationAfter(1500, truth, true);
+  EXPECT_LT((once - truth).cwiseAbs().maxCoeff(), 1e-4) << once.transpose();
+  // Counted in every window: short by 1/sigma^2 / (H + 1/sigma^2), 26 % of the turn correction.
+  const double shrink = (1 / 0.0025) / (1 / 0.0009 + 1 / 0.0025);
+  EXPECT_NEAR(every.y(), truth.y() * (1 - shrink), 2e-4) << every.transpose();
+  // The prior, once counted, stays a bound: data beyond 3 sigma of nominal meet it.
+  const Eigen::Vector3d far = calibrationAfter(1500, Eigen::Vector3d(0.4, -0.3, 1.0), false);
+  EXPECT_NEAR(far.x(), 0.15, 1e-9);
+  EXPECT_NEAR(far.y(), -0.15, 1e-9);
+  EXPECT_NEAR(far.z(), 0.6, 1e-9);
 }
 
 }  // namespace

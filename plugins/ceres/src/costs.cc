@@ -4,6 +4,8 @@
 #include <ceres/normal_prior.h>
 
 #include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
 
 namespace rvwo::ceres_adapters {
 
@@ -63,12 +65,19 @@ bool WheelCalibratedCost::Evaluate(double const* const* parameters, double* resi
 }
 
 void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
-                               const Eigen::Vector3d& step, const Eigen::Vector3d& c_before) {
-  problem->AddResidualBlock(
-      new ceres::NormalPrior(ceres::Matrix(sigma.cwiseInverse().asDiagonal()), ceres::Vector(Eigen::Vector3d::Zero())),
-      nullptr, c);
+                               const Eigen::Vector3d& step, const Eigen::Vector3d& c_before, bool first) {
+  if (first)
+    problem->AddResidualBlock(new ceres::NormalPrior(ceres::Matrix(sigma.cwiseInverse().asDiagonal()),
+                                                     ceres::Vector(Eigen::Vector3d::Zero())),
+                              nullptr, c);
   problem->AddResidualBlock(
       new ceres::NormalPrior(ceres::Matrix(step.cwiseInverse().asDiagonal()), ceres::Vector(c_before)), nullptr, c);
+  for (int i = 0; i < 3; ++i) {
+    // Never tighter than where the estimate already is (c_before was within them when it came).
+    const double bound = std::max(3.0 * sigma[i], std::fabs(c_before[i]));
+    problem->SetParameterLowerBound(c, i, -bound);
+    problem->SetParameterUpperBound(c, i, bound);
+  }
 }
 
 }  // namespace rvwo::ceres_adapters

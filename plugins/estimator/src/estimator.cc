@@ -197,6 +197,7 @@ struct Estimator::Impl {
   WheelOdometry odometry;
   std::mutex odometry_mutex;                                // the wheel buffer is written by tracking, read by mapping
   WheelCalibration calibration = WheelCalibration::Zero();  // the odometry's, refined by local BA (same lock)
+  bool calibration_learnt = false;  // a local BA has had it free (its prior around zero counted)
   bool has_odometry = false;
   std::shared_ptr<Segmenter> segmenter;
   std::unique_ptr<AsyncSegmenter> async;
@@ -1288,13 +1289,15 @@ struct Estimator::Impl {
             problem.AddResidualBlock(cost(o), loss(alpha[o.point], o.stereo), x[o.kf].data(), P[o.point].data());
       }
     }
-    // The odometry's calibration, a variable of the window's wheel edges: a prior around zero
-    // (opt.calibration_sigma) and one around the last estimate (opt.calibration_step), so that
-    // each BA refines what the windows before found.
+    // The odometry's calibration, a variable of the window's wheel edges: a prior around the last
+    // estimate (opt.calibration_step), so that each BA refines what the windows before found, and
+    // one around zero (opt.calibration_sigma) until a BA has had it free (addWheelCalibrationPriors).
     WheelCalibration c;
+    bool calibration_first;
     {
       std::lock_guard<std::mutex> lock(odometry_mutex);
       c = calibration;
+      calibration_first = !calibration_learnt;
     }
     const WheelCalibration c_before = c;
     const bool calibrate = opt.mode == Mode::kVw && opt.calibrate;
@@ -1338,7 +1341,7 @@ struct Estimator::Impl {
     }
     if (calibrate && problem.HasParameterBlock(c.data())) {
       ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), opt.calibration_sigma, opt.calibration_step,
-                                                c_before);
+                                                c_before, calibration_first);
       // Mono has no metric but the wheels': scaling the window's map and the wheels' distance
       // scale together changes no residual, so that scale is left as it is (the turn scale and the
       // curvature are angles vision sees). Left free, it drifted to 0.976-0.994 over the mono suite
@@ -1358,6 +1361,7 @@ struct Estimator::Impl {
     so.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
     auto chi2Of = [&](const Obs& o, double* e) { return chi2(o.stereo, x[o.kf], P[o.point], o.z, o.sigma, e); };
+    bool c_free = false;  // the calibration was a variable of the second round
     if (problem.NumResidualBlocks() > 0) {
       ceres::Solve(so, &problem, &summary);
       // Outliers leave the second round (ORB-SLAM's two-stage local BA); so does a wheel edge
@@ -1404,6 +1408,7 @@ struct Estimator::Impl {
         c = c_before;
         problem.SetParameterBlockConstant(c.data());
       }
+      c_free = calibrate && consistent && problem.HasParameterBlock(c.data());
       for (std::size_t k = 0; k < obs.size(); ++k) {
         double chi2 = 0;
         if (blocks[k] && (!chi2Of(obs[k], &chi2) || chi2 > chi2Gate(obs[k].stereo))) {
@@ -1430,6 +1435,7 @@ struct Estimator::Impl {
     if (calibrate && c.allFinite()) {
       std::lock_guard<std::mutex> olock(odometry_mutex);
       calibration = c;
+      calibration_learnt = calibration_learnt || c_free;
     }
     for (std::size_t i = 0; i < kf_ids.size(); ++i) {
       if (fixed[i]) continue;

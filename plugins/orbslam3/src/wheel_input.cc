@@ -60,6 +60,7 @@ struct WheelInput::Impl {
   // and applied to every wheel delta (the suite's wheels: radii 1 % off each way, a turn-rate bias
   // of 0.9 deg/s at 0.3 m/s, which tight wheel edges between keyframes pressed onto the map).
   WheelCalibration calibration = WheelCalibration::Zero();
+  bool calibration_learnt = false;  // a local map has had it free (its prior around zero counted)
   WheelDelta integrate(double t0, double t1) const { return odometry.integrate(t0, t1, calibration); }
   std::size_t wheel_frames = 0;
   int run = 0;  // frames on the wheels in a row, this one included
@@ -626,6 +627,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   std::vector<double> alpha(np, 1.0);
   std::vector<Impl::Span> spans;
   WheelCalibration c;
+  bool calibration_first;
   {
     std::vector<double> t(nk);
     std::vector<char> fixed(nk);
@@ -635,6 +637,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     }
     std::lock_guard<std::mutex> lock(m.mutex);
     c = m.calibration;
+    calibration_first = !m.calibration_learnt;
     if (!m.params.huber)
       for (std::size_t i = 0; i < np; ++i) alpha[i] = m.reliability.alpha(pb.points[i].id);
     // ORB-SLAM3's local window is the covisible keyframes: mostly the last ones, whose wheel
@@ -692,7 +695,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   }
   if (!calibrating.empty())
     ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), m.params.calibration_sigma, m.params.calibration_step,
-                                              c_before);
+                                              c_before, calibration_first);
   bool held = false;
   for (std::size_t k = 0; k < nk; ++k) {
     if (!problem.HasParameterBlock(x[k].data())) continue;
@@ -736,6 +739,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   if (out->calibrated) {
     std::lock_guard<std::mutex> lock(m.mutex);
     m.calibration = c;
+    m.calibration_learnt = true;
   }
 
   // Outliers as ORB-SLAM3 judges them: beyond the chi2 gate (eq. 10's covariance) or behind.

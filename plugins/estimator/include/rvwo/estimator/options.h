@@ -127,7 +127,8 @@ struct EstimatorOptions {
   WheelNoise wheel_noise;
   DiffDriveParams drive;
   // ---- the odometry's calibration c (rvwo/edges/wheel_preintegration.h), refined by local BA in
-  // vw (Odometry.Calibrate: 1 | 0): a prior around zero, and a bound on how far one BA may move it.
+  // vw (Odometry.Calibrate: 1 | 0): a prior around zero (counted in the first BA, then a bound at
+  // 3 sigma), and one around the last estimate in every BA: how far one BA may move it.
   bool calibrate = true;
   Eigen::Vector3d calibration_sigma{0.05, 0.05, 0.2};     // distance scale, turn scale, curvature (rad/m)
   Eigen::Vector3d calibration_step{0.003, 0.003, 0.005};  // the same, per local BA

@@ -79,7 +79,8 @@ struct WheelInputParams {
   bool calibrate = true;          // the local map refines the odometry's calibration (distance
                                   // scale, turn scale, curvature), applied to every wheel edge
                                   // [Odometry.Calibrate: 1 | 0]
-  Eigen::Vector3d calibration_sigma = Eigen::Vector3d(0.05, 0.05, 0.2);     // prior around 0 (1, 1, rad/m)
+  Eigen::Vector3d calibration_sigma = Eigen::Vector3d(0.05, 0.05, 0.2);     // prior around 0 (1, 1, rad/m),
+                                                                            // counted once, then a bound
   Eigen::Vector3d calibration_step = Eigen::Vector3d(0.003, 0.003, 0.005);  // around the last, per local map
   double max_wheel_span = 5.0;  // s: the longest stretch between keyframes a wheel edge of the
                                 // local map spans (calibration errors grow beyond its covariance)
