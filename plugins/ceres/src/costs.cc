@@ -73,7 +73,7 @@ void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::
   problem->AddResidualBlock(
       new ceres::NormalPrior(ceres::Matrix(step.cwiseInverse().asDiagonal()), ceres::Vector(c_before)), nullptr, c);
   for (int i = 0; i < 3; ++i) {
-    // Never tighter than where the estimate already is (c_before was within them when it came).
+    // Ceres refuses a start outside the bounds: never tighter than c_before (this BA's start).
     const double bound = std::max(3.0 * sigma[i], std::fabs(c_before[i]));
     problem->SetParameterLowerBound(c, i, -bound);
     problem->SetParameterUpperBound(c, i, bound);

@@ -68,7 +68,7 @@ class WheelCalibratedCost final : public ceres::SizedCostFunction<3, 3, 3, 3> {
 //     BA it is counted once a window, and pulls the estimate towards zero by H / (H + 1/sigma^2)
 //     (H: a window's information on c), for the rest of the run: the suite's turn scale settled
 //     0.5-1 % short of its true correction (2 %), where a window with few turns has little H.
-//     From the second BA on it is a bound instead: c stays within 3 sigma of zero.
+//     Beyond that, it is a bound: c stays within 3 sigma of zero in every BA.
 void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
                                const Eigen::Vector3d& step, const Eigen::Vector3d& c_before, bool first);
 
