@@ -215,4 +215,16 @@ double pathLength(const Trajectory& ref, const std::vector<std::pair<std::size_t
   return len;
 }
 
+Trajectory heldAtLastPose(const Trajectory& est, const std::vector<double>& times, double max_dt) {
+  Trajectory out;
+  if (est.empty()) return out;
+  out.reserve(times.size());
+  std::size_t k = 0;  // the first pose of est after times[i] + max_dt
+  for (const double t : times) {
+    while (k < est.size() && est[k].t <= t + max_dt) ++k;
+    out.push_back({t, est[k == 0 ? 0 : k - 1].T});
+  }
+  return out;
+}
+
 }  // namespace rvwo::apps

@@ -79,4 +79,9 @@ RpeResult rpe(const Trajectory& ref, const Trajectory& est,
 // Path length of the reference over the associated poses (for "% of path").
 double pathLength(const Trajectory& ref, const std::vector<std::pair<std::size_t, std::size_t>>& pairs);
 
+// A pose at each of times (increasing): the estimate's own where it has one within max_dt, else
+// the last one before (a system that lost track: what its user had), before its first its first.
+// For an ATE over every frame of a run that did not keep them all. Empty when est is.
+Trajectory heldAtLastPose(const Trajectory& est, const std::vector<double>& times, double max_dt);
+
 }  // namespace rvwo::apps

@@ -123,6 +123,30 @@ TEST(Eval, AssociationByNearestTimestamp) {
   for (std::size_t k = 0; k < pairs.size(); ++k) EXPECT_EQ(pairs[k].first, 3 * k);
 }
 
+TEST(Eval, LostFramesAreHeldAtTheLastPoseKept) {
+  const Trajectory gt = path();
+  std::vector<double> times;
+  for (const StampedPose& p : gt) times.push_back(p.t + 0.003);  // frames a little off the poses
+  // Kept: frames 5-19 and 30 on (the first 5 before initialisation, 20-29 lost).
+  Trajectory kept;
+  for (std::size_t i = 0; i < gt.size(); ++i)
+    if ((i >= 5 && i < 20) || i >= 30) kept.push_back(gt[i]);
+  const Trajectory held = heldAtLastPose(kept, times, 0.01);
+  ASSERT_EQ(held.size(), gt.size());
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    const std::size_t from = i < 5 ? 5 : (i >= 20 && i < 30) ? 19 : i;
+    EXPECT_EQ(held[i].t, times[i]);
+    EXPECT_TRUE(held[i].T.isApprox(gt[from].T, 1e-15)) << i;
+  }
+  // Over every frame the lost stretch counts: at least its frames' travel since frame 19.
+  const auto pairs = associate(gt, held, 0.01);
+  ASSERT_EQ(pairs.size(), gt.size());
+  const ErrorStats s = ate(gt, held, pairs, Alignment::kNone).stats;
+  EXPECT_NEAR(s.max, (gt[29].T.translation() - gt[19].T.translation()).norm(), 1e-12);
+  EXPECT_LT(ate(gt, kept, associate(gt, kept, 0.01), Alignment::kNone).stats.max, 1e-12);
+  EXPECT_TRUE(heldAtLastPose({}, times, 0.01).empty());
+}
+
 TEST(Eval, TumParsingErrorsNameFileAndLine) {
   const fs::path dir = rvwo::test::scratch("rvwo_eval_test");
   fs::create_directories(dir);
