@@ -254,27 +254,32 @@ TEST(CeresPlanarBA, NoisyWithinThreeSigma) {
   EXPECT_LT(s.summary.final_cost, 1e-2 * s.summary.initial_cost);
 }
 
+// One local BA on the odometry's calibration alone: the window's information on it (`data`,
+// its sigma `data_sigma`: H) and the priors of addWheelCalibrationPriors (around zero, sigma
+// 0.05, 0.05, 0.2; around c, `step`). Moves c.
+void calibrationWindow(Eigen::Vector3d* c, const Eigen::Vector3d& data, const Eigen::Vector3d& data_sigma,
+                       const Eigen::Vector3d& step, bool first) {
+  const Eigen::Vector3d sigma(0.05, 0.05, 0.2), before = *c;
+  ceres::Problem problem;
+  problem.AddResidualBlock(
+      new ceres::NormalPrior(ceres::Matrix(data_sigma.cwiseInverse().asDiagonal()), ceres::Vector(data)), nullptr,
+      c->data());
+  ceres_adapters::addWheelCalibrationPriors(&problem, c->data(), sigma, step, before, first);
+  ceres::Solver::Options so;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  EXPECT_TRUE(summary.IsSolutionUsable());
+}
+
 // A run of local BAs, each with weak, unbiased information on the odometry's calibration (a
 // window with few turns): the estimate they hand on converges to the truth. With the prior around
 // zero counted in every BA (first each time), it settles short of it, at H / (H + 1/sigma^2).
 // Returns the estimate after `windows` BAs; `every` adds the zero prior to every one.
 Eigen::Vector3d calibrationAfter(int windows, const Eigen::Vector3d& truth, bool every) {
-  const Eigen::Vector3d sigma(0.05, 0.05, 0.2), step(0.003, 0.003, 0.005);
-  const Eigen::Vector3d data_sigma(0.03, 0.03, 0.05);  // one window's information on c (H)
+  const Eigen::Vector3d step(0.003, 0.003, 0.005), data_sigma(0.03, 0.03, 0.05);
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (int w = 0; w < windows; ++w) {
-    const Eigen::Vector3d before = c;
-    ceres::Problem problem;
-    problem.AddResidualBlock(
-        new ceres::NormalPrior(ceres::Matrix(data_sigma.cwiseInverse().asDiagonal()), ceres::Vector(truth)), nullptr,
-        c.data());
-    ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), sigma, step, before, every || w == 0);
-    ceres::Solver::Options so;
-    so.logging_type = ceres::SILENT;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &problem, &summary);
-    EXPECT_TRUE(summary.IsSolutionUsable());
-  }
+  for (int w = 0; w < windows; ++w) calibrationWindow(&c, truth, data_sigma, step, every || w == 0);
   return c;
 }
 
@@ -291,6 +296,32 @@ TEST(CeresWheelCalibration, TheNominalPriorCountsOnceSoARunOfWindowsReachesTheTr
   EXPECT_NEAR(far.x(), 0.15, 1e-9);
   EXPECT_NEAR(far.y(), -0.15, 1e-9);
   EXPECT_NEAR(far.z(), 0.6, 1e-9);
+}
+
+// BAs `rate` times a second for `seconds`, each on the same weak data (a sliding window's
+// keyframes are mostly the last one's): how far they take c from zero towards the data's value.
+double calibrationMovedBy(double rate, double seconds, bool in_time) {
+  const Eigen::Vector3d step(0.003, 0.003, 0.005), data_sigma(0.03, 0.03, 0.05), data(0, -0.02, 0);
+  const Eigen::Vector3d s = in_time ? ceres_adapters::wheelCalibrationStep(step, 0.5, 1.0 / rate) : step;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  const int n = static_cast<int>(std::lround(rate * seconds));
+  for (int w = 0; w < n; ++w) calibrationWindow(&c, data, data_sigma, s, w == 0);
+  return -c.y();
+}
+
+TEST(CeresWheelCalibration, ItsStepIsAWalkInTimeWhateverTheKeyframeRate) {
+  EXPECT_EQ(ceres_adapters::wheelCalibrationStep(Eigen::Vector3d(0.004, 0.002, 0.008), 0.5, 0.125),
+            Eigen::Vector3d(0.002, 0.001, 0.004));
+  EXPECT_EQ(ceres_adapters::wheelCalibrationStep(Eigen::Vector3d::Ones(), 0.5, 7.0), Eigen::Vector3d::Ones());
+  EXPECT_EQ(ceres_adapters::wheelCalibrationStep(Eigen::Vector3d::Ones(), 0.5, 0.0), Eigen::Vector3d::Constant(0.1));
+  EXPECT_THROW(ceres_adapters::wheelCalibrationStep(Eigen::Vector3d::Ones(), 0.0, 0.1), std::invalid_argument);
+  // Two seconds of BAs on the same weak data: 2 a second (the step's own period), or one every
+  // frame (walkers filling the view). In time, the two move c alike (to first order: each BA
+  // moves it by H s^2 of the gap, and rate x s^2 is the same); a full step per BA: 11.5x as far.
+  const double slow = calibrationMovedBy(2, 2.0, true), fast = calibrationMovedBy(30, 2.0, true);
+  EXPECT_GT(slow, 1e-4);
+  EXPECT_NEAR(fast / slow, 1.0, 0.05) << slow << " " << fast;
+  EXPECT_GT(calibrationMovedBy(30, 2.0, false) / slow, 10.0);
 }
 
 }  // namespace

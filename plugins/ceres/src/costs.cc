@@ -6,6 +6,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace rvwo::ceres_adapters {
 
@@ -78,6 +79,12 @@ void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::
     problem->SetParameterLowerBound(c, i, -bound);
     problem->SetParameterUpperBound(c, i, bound);
   }
+}
+
+Eigen::Vector3d wheelCalibrationStep(const Eigen::Vector3d& step, double period, double dt) {
+  if (!(period > 0)) throw std::invalid_argument("wheelCalibrationStep: period must be > 0");
+  const double share = std::isnan(dt) ? 1.0 : std::clamp(dt / period, 0.01, 1.0);
+  return step * std::sqrt(share);
 }
 
 }  // namespace rvwo::ceres_adapters

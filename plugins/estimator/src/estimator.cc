@@ -182,6 +182,7 @@ void EstimatorOptions::validate() const {
   if (!(slip_min_inliers >= 1)) fail("Estimator.SlipMinInliers: >= 1 (times Estimator.MinInliers)");
   if (!(trusted_max_ps > 0 && trusted_max_ps <= 1)) fail("Estimator.TrustedMaxPs: in (0, 1]");
   if (kernel == KernelChoice::kFixed && std::isnan(fixed_alpha)) fail("kernel fixed: alpha is NaN");
+  if (!(calibration_period > 0)) fail("calibration_period: > 0 s");
   reliability.validate();
   wheel_noise.validate();
   drive.validate();
@@ -198,6 +199,7 @@ struct Estimator::Impl {
   std::mutex odometry_mutex;                                // the wheel buffer is written by tracking, read by mapping
   WheelCalibration calibration = WheelCalibration::Zero();  // the odometry's, refined by local BA (same lock)
   bool calibration_learnt = false;  // a local BA has had it free (its prior around zero counted)
+  double calibration_t = NAN;       // the newest keyframe's time in the last BA that had it free
   bool has_odometry = false;
   std::shared_ptr<Segmenter> segmenter;
   std::unique_ptr<AsyncSegmenter> async;
@@ -1290,14 +1292,19 @@ struct Estimator::Impl {
       }
     }
     // The odometry's calibration, a variable of the window's wheel edges: a prior around the last
-    // estimate (opt.calibration_step), so that each BA refines what the windows before found, and
-    // one around zero (opt.calibration_sigma) until a BA has had it free (addWheelCalibrationPriors).
+    // estimate (opt.calibration_step, shared out over the time since that estimate), so that each
+    // BA refines what the windows before found, and one around zero (opt.calibration_sigma) until
+    // a BA has had it free (addWheelCalibrationPriors).
     WheelCalibration c;
     bool calibration_first;
+    const double newest_t = *std::max_element(kf_t.begin(), kf_t.end());
+    Eigen::Vector3d step;
     {
       std::lock_guard<std::mutex> lock(odometry_mutex);
       c = calibration;
       calibration_first = !calibration_learnt;
+      step =
+          ceres_adapters::wheelCalibrationStep(opt.calibration_step, opt.calibration_period, newest_t - calibration_t);
     }
     const WheelCalibration c_before = c;
     const bool calibrate = opt.mode == Mode::kVw && opt.calibrate;
@@ -1340,8 +1347,8 @@ struct Estimator::Impl {
       }
     }
     if (calibrate && problem.HasParameterBlock(c.data())) {
-      ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), opt.calibration_sigma, opt.calibration_step,
-                                                c_before, calibration_first);
+      ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), opt.calibration_sigma, step, c_before,
+                                                calibration_first);
       // Mono has no metric but the wheels': scaling the window's map and the wheels' distance
       // scale together changes no residual, so that scale is left as it is (the turn scale and the
       // curvature are angles vision sees). Left free, it drifted to 0.976-0.994 over the mono suite
@@ -1436,6 +1443,7 @@ struct Estimator::Impl {
       std::lock_guard<std::mutex> olock(odometry_mutex);
       calibration = c;
       calibration_learnt = calibration_learnt || c_free;
+      if (c_free) calibration_t = newest_t;
     }
     for (std::size_t i = 0; i < kf_ids.size(); ++i) {
       if (fixed[i]) continue;

@@ -47,6 +47,7 @@ struct WheelInput::Impl {
     drive.track = p.track;
     drive.validate();
     noise.validate();
+    if (!(p.calibration_period > 0)) throw std::invalid_argument("WheelInputParams: calibration_period must be > 0 s");
     out_of_plane.sigma_z = p.sigma_z;
     out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * p.sigma_rollpitch * p.sigma_rollpitch;
   }
@@ -61,6 +62,7 @@ struct WheelInput::Impl {
   // of 0.9 deg/s at 0.3 m/s, which tight wheel edges between keyframes pressed onto the map).
   WheelCalibration calibration = WheelCalibration::Zero();
   bool calibration_learnt = false;  // a local map has had it free (its prior around zero counted)
+  double calibration_t = NAN;       // the newest keyframe's time in the last local map that had it free
   WheelDelta integrate(double t0, double t1) const { return odometry.integrate(t0, t1, calibration); }
   std::size_t wheel_frames = 0;
   int run = 0;  // frames on the wheels in a row, this one included
@@ -628,6 +630,8 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   std::vector<Impl::Span> spans;
   WheelCalibration c;
   bool calibration_first;
+  double newest_t;
+  Eigen::Vector3d step;  // the prior around the last estimate: a random walk in time
   {
     std::vector<double> t(nk);
     std::vector<char> fixed(nk);
@@ -638,6 +642,9 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     std::lock_guard<std::mutex> lock(m.mutex);
     c = m.calibration;
     calibration_first = !m.calibration_learnt;
+    newest_t = *std::max_element(t.begin(), t.end());
+    step = ceres_adapters::wheelCalibrationStep(m.params.calibration_step, m.params.calibration_period,
+                                                newest_t - m.calibration_t);
     if (!m.params.huber)
       for (std::size_t i = 0; i < np; ++i) alpha[i] = m.reliability.alpha(pb.points[i].id);
     // ORB-SLAM3's local window is the covisible keyframes: mostly the last ones, whose wheel
@@ -694,8 +701,8 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     }
   }
   if (!calibrating.empty())
-    ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), m.params.calibration_sigma, m.params.calibration_step,
-                                              c_before, calibration_first);
+    ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), m.params.calibration_sigma, step, c_before,
+                                              calibration_first);
   bool held = false;
   for (std::size_t k = 0; k < nk; ++k) {
     if (!problem.HasParameterBlock(x[k].data())) continue;
@@ -740,6 +747,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     std::lock_guard<std::mutex> lock(m.mutex);
     m.calibration = c;
     m.calibration_learnt = true;
+    m.calibration_t = newest_t;
   }
 
   // Outliers as ORB-SLAM3 judges them: beyond the chi2 gate (eq. 10's covariance) or behind.

@@ -72,4 +72,16 @@ class WheelCalibratedCost final : public ceres::SizedCostFunction<3, 3, 3, 3> {
 void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
                                const Eigen::Vector3d& step, const Eigen::Vector3d& c_before, bool first);
 
+// The step of addWheelCalibrationPriors for a BA that comes dt seconds (of data: its newest
+// keyframe's time) after the last one that refined c, when `step` is the step of BAs `period`
+// seconds apart: step * sqrt(dt / period), dt taken within [0.01, 1] x period (NaN, no BA yet:
+// the full step). The calibration drifts as a random walk in time (its variance grows with dt),
+// not with the number of BAs: keyframes come at any rate, and walkers filling the view make one
+// of nearly every frame. With a full step per BA, 30 BAs a second let c wander 15 times the
+// variance a second that 2 do, each on a window of a quarter second that knows little of it: the
+// suite's `dynamic` took the distance scale 0.7 % off in half a second as walkers came in. Above
+// one period a BA keeps the full step (its window, not the time, then limits what it knows);
+// below 0.01 a BA on the same keyframes as the last still has a tenth of it.
+Eigen::Vector3d wheelCalibrationStep(const Eigen::Vector3d& step, double period, double dt);
+
 }  // namespace rvwo::ceres_adapters

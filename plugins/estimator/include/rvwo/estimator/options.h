@@ -128,10 +128,12 @@ struct EstimatorOptions {
   DiffDriveParams drive;
   // ---- the odometry's calibration c (rvwo/edges/wheel_preintegration.h), refined by local BA in
   // vw (Odometry.Calibrate: 1 | 0): a prior around zero (counted in the first BA, then a bound at
-  // 3 sigma), and one around the last estimate in every BA: how far one BA may move it.
+  // 3 sigma), and one around the last estimate in every BA: how far one BA may move it, a random
+  // walk in time (ceres_adapters::wheelCalibrationStep).
   bool calibrate = true;
   Eigen::Vector3d calibration_sigma{0.05, 0.05, 0.2};     // distance scale, turn scale, curvature (rad/m)
-  Eigen::Vector3d calibration_step{0.003, 0.003, 0.005};  // the same, per local BA
+  Eigen::Vector3d calibration_step{0.003, 0.003, 0.005};  // the same, per local BA calibration_period after the last
+  double calibration_period = 0.5;                        // s: keyframes come about this often where nothing moves
   ReliabilityParams reliability;
   SemanticPriors priors = SemanticPriors::builtin("voc21");
   int label_dilation_px = 8;  // widen dynamic classes' masks by this much (their edges are the least sure)

@@ -82,6 +82,9 @@ struct WheelInputParams {
   Eigen::Vector3d calibration_sigma = Eigen::Vector3d(0.05, 0.05, 0.2);     // prior around 0 (1, 1, rad/m),
                                                                             // counted once, then a bound
   Eigen::Vector3d calibration_step = Eigen::Vector3d(0.003, 0.003, 0.005);  // around the last, per local map
+                                                                            // calibration_period after the last
+                                                                            // (ceres_adapters::wheelCalibrationStep)
+  double calibration_period = 0.5;                                          // s
   double max_wheel_span = 5.0;  // s: the longest stretch between keyframes a wheel edge of the
                                 // local map spans (calibration errors grow beyond its covariance)
                                 // [LocalMapping.MaxWheelSpan]
