@@ -1309,10 +1309,10 @@ struct Estimator::Impl {
     const WheelCalibration c_before = c;
     const bool calibrate = opt.mode == Mode::kVw && opt.calibrate;
     struct WheelSpan {
-      ceres::ResidualBlockId block;  // nullptr: not in the problem (yet)
+      ceres::ResidualBlockId block;
       std::size_t a, b;
       WheelEdge edge;  // what the wheels measured, integrated with the calibration before this BA
-      bool slipped;    // across a slip tracking caught (second round only, Huber, no calibration)
+      bool slipped;    // across a slip tracking caught (Huber, no calibration)
     };
     std::vector<WheelSpan> wheel_edges;
     if (opt.mode == Mode::kVw) {
@@ -1326,26 +1326,21 @@ struct Estimator::Impl {
         const std::optional<WheelDelta> d = wheelDelta(kf_t[a], kf_t[b]);
         if (!d) continue;
         try {
-          // Across a slip that tracking caught, the wheels measured motion that did not happen:
-          // the first round goes without that edge, and the second has it (under a Huber kernel)
-          // only if the first round's keyframes agree with it (below). Present from the first
-          // round, even under Huber, it dragged a new keyframe along the spinning wheels where
-          // vision sees little (forward, on far points; stereo combined seed 3, 60.3 s: 16 cm and
-          // 13 mrad, then the frames after it, 0.85 % of the path). Elsewhere the edge stays
-          // quadratic: among walkers it is what holds the window to the static world (Huber at
-          // the 99.9 % gate on every wheel edge: slip 0.88 %, dynamic 2.0 % with Huber kernels,
-          // measured). A slip tracking missed is caught after the first round (below).
-          // Nor does a slipped edge speak of the calibration: it would take the slip for a scale
+          // Across a slip that tracking caught, the wheel edge gets a Huber kernel (it measured
+          // motion that did not happen); elsewhere it stays quadratic: among walkers it is what
+          // holds the window to the static world (Huber at the 99.9 % gate on every wheel edge:
+          // slip 0.88 %, dynamic 2.0 % with Huber kernels, measured). A slip tracking missed is
+          // caught after the first round (below).
+          // Nor does such an edge speak of the calibration: it would take the slip for a scale
           // error (the wheels of a turn on the spot that spun took the turn scale to 0.6).
           const bool slipped = slipBetween(kf_t[a], kf_t[b]);
+          ceres::LossFunction* wheel_loss = slipped ? new ceres::HuberLoss(std::sqrt(kChi2Stereo)) : nullptr;
           const WheelEdge edge(*d);
-          ceres::ResidualBlockId block = nullptr;
-          if (!slipped) {
-            block = calibrate ? problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(edge), nullptr,
-                                                         x[a].data(), x[b].data(), c.data())
-                              : problem.AddResidualBlock(new ceres_adapters::WheelCost(edge), nullptr, x[a].data(),
-                                                         x[b].data());
-          }
+          const ceres::ResidualBlockId block =
+              calibrate && !slipped
+                  ? problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(edge), wheel_loss, x[a].data(),
+                                             x[b].data(), c.data())
+                  : problem.AddResidualBlock(new ceres_adapters::WheelCost(edge), wheel_loss, x[a].data(), x[b].data());
           wheel_edges.push_back({block, a, b, edge, slipped});
         } catch (const std::invalid_argument&) {
         }
@@ -1385,19 +1380,10 @@ struct Estimator::Impl {
       // 0.29 % and 0.10 %; measured). Judged with the calibration before this BA: the first round
       // may have moved c to explain the slip away.
       bool slip_found = false;
-      for (WheelSpan& w : wheel_edges) {
+      for (const WheelSpan& w : wheel_edges) {
         // The residual is what the keyframes made less what the wheels claimed: minus the miss.
         const Eigen::Vector3d r = w.edge.residual(x[w.a], x[w.b]);
-        const bool agrees = (w.edge.sqrtInformation() * r).squaredNorm() <= kChi2WheelOutlier;
-        if (w.slipped) {  // judged by a first round without it: back in only if the keyframes agree
-          if (agrees && problem.HasParameterBlock(x[w.a].data()) && problem.HasParameterBlock(x[w.b].data())) {
-            w.block =
-                problem.AddResidualBlock(new ceres_adapters::WheelCost(w.edge),
-                                         new ceres::HuberLoss(std::sqrt(kChi2Stereo)), x[w.a].data(), x[w.b].data());
-          }
-          continue;
-        }
-        if (agrees) continue;
+        if ((w.edge.sqrtInformation() * r).squaredNorm() <= kChi2WheelOutlier) continue;
         const Eigen::Vector2d& dp = w.edge.delta().dp;
         const Eigen::Vector2d miss = -r.head<2>();
         const double dphi = w.edge.delta().dphi, turn_miss = -r.z();
