@@ -25,13 +25,14 @@ using rvwo::test::slurp;
 
 // A scenario of the suite (or a scenario file, by absolute path), cut to `duration` seconds,
 // simulated into a fresh scratch folder.
-fs::path simulate(const std::string& scenario, double duration, const std::string& extra = "") {
+fs::path simulate(const std::string& scenario, double duration, const std::string& extra = "", int seed = 1) {
   const fs::path dir = rvwo::test::scratch("replay_" + fs::path(scenario).stem().string());
   fs::remove_all(dir);
   const std::string file =
       fs::path(scenario).is_absolute() ? scenario : std::string(RVWO_SOURCE_DIR) + "/scenarios/" + scenario + ".yaml";
   const std::string cmd = std::string(RVWO_SIM) + " --quiet --scenario " + file + " --out " + dir.string() +
-                          " --seed 1 --duration " + std::to_string(duration) + " " + extra + " > /dev/null";
+                          " --seed " + std::to_string(seed) + " --duration " + std::to_string(duration) + " " + extra +
+                          " > /dev/null";
   EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
   return dir;
 }
@@ -271,6 +272,23 @@ TEST(Replay, SlipAmongCloseWalkersRgbdLeavesTheMapWhereItIs) {
   ASSERT_NO_FATAL_FAILURE(replayVw(dir, "combined RGB-D vw", &vw));
   EXPECT_LE(vw.ate, 0.005 * vw.path) << vw.out;
   EXPECT_LE(travel(dir / "vw.txt", 60.1, 62.5), 0.05);
+  fs::remove_all(dir);
+}
+
+// The whole combined scenario, stereo, seed 3. At 60-62.5 s the wheels spin while the robot
+// stands, and tracking, on hundreds of trusted landmarks, catches the slip. Local BA's wheel edge
+// across it, under Huber from the first round, still dragged each new keyframe along the wheels'
+// claim where vision sees little (forward, on far points): 16 cm and 13 mrad at 60.3 s, again at
+// 60.7 s, and the frames after them with them (0.85 % of the path). The first round now goes
+// without an edge across a spin (the robot stood while the wheels went on), and the second has it
+// only if the keyframes agree with it: 0.10 %.
+TEST(Replay, SlipCaughtLeavesTheNewKeyframesWhereVisionPutThem) {
+  const fs::path dir = simulate("combined", 120, "", 3);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "combined seed 3 vw", &vw));
+  EXPECT_TRUE(slipCaught(vw.out)) << vw.out;
+  EXPECT_LE(travel(dir / "vw.txt", 60.1, 62.4), 0.05);
+  EXPECT_LE(vw.ate, 0.003 * vw.path) << vw.out;
   fs::remove_all(dir);
 }
 

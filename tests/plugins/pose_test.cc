@@ -368,6 +368,31 @@ TEST(WheelsAgainstVision, CreepIsTheWheelsClaimBeyondBothNoisesOverAStretch) {
   }
 }
 
+// A spin: vision alone saw at most half the wheels' travel and half their turn (each + 2 mm or
+// 2 mrad), both at once, either way round; a skid that carried the robot on is not one.
+TEST(WheelsAgainstVision, SpinIsTheRobotStandingWhileTheWheelsGoOn) {
+  WheelDelta d;
+  for (const double sign : {1.0, -1.0}) {
+    d.dp << sign * 0.01, 0.0;  // a frame at 0.3 m/s
+    d.dphi = sign * 0.004;
+    EXPECT_TRUE(slipIsSpin(d, SE2(0.0, 0.0, 0.0))) << sign;      // stood
+    EXPECT_TRUE(slipIsSpin(d, SE2(-0.0069, 0.0, 0.0))) << sign;  // 0.005 + 0.002 in any direction
+    EXPECT_FALSE(slipIsSpin(d, SE2(0.0, 0.0072, 0.0))) << sign;
+    EXPECT_TRUE(slipIsSpin(d, SE2(0.0, 0.0, -0.0039))) << sign;  // 0.002 + 0.002 rad either way
+    EXPECT_FALSE(slipIsSpin(d, SE2(0.0, 0.0, 0.0041))) << sign;
+    EXPECT_FALSE(slipIsSpin(d, SE2(sign * 0.008, 0.0, 0.0))) << sign;  // skidded on: 0.8 of the claim
+  }
+  // The slack alone for a claim of nothing (wheels at rest: no spin to speak of beyond it).
+  d.dp.setZero();
+  d.dphi = 0.0;
+  EXPECT_TRUE(slipIsSpin(d, SE2(0.0019, 0.0, 0.0019)));
+  EXPECT_FALSE(slipIsSpin(d, SE2(0.0021, 0.0, 0.0)));
+  // A turn on the spot that spun: the turn is what counts.
+  d.dphi = 0.1;
+  EXPECT_TRUE(slipIsSpin(d, SE2(0.0, 0.0, 0.05)));
+  EXPECT_FALSE(slipIsSpin(d, SE2(0.0, 0.0, 0.06)));
+}
+
 // Mono's stall test: the claim's dominant part (travel against 3 cm, turn against 0.05 rad), less
 // than half of it seen by vision alone, and not more than 0.3 of it backwards.
 TEST(WheelsAgainstVision, StallIsLessThanHalfTheClaimSeenOverAStretch) {

@@ -163,6 +163,11 @@ bool missBeyondTheClaim(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   return miss > wheels.dp.norm() + WheelTolerance(wheels).translation + skidReach(wheels);
 }
 
+bool slipIsSpin(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
+  return T_b0_b1_vision.translation().norm() <= kSpinSeen * wheels.dp.norm() + kSpinSlack &&
+         std::fabs(T_b0_b1_vision.angle()) <= kSpinSeen * std::fabs(wheels.dphi) + kSpinSlack;
+}
+
 bool wheelsDisagree(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   const WheelTolerance tol(wheels);
   return (wheels.dp - T_b0_b1_vision.translation()).norm() > tol.translation ||

@@ -103,7 +103,8 @@ struct EstimatorOptions {
   // ... if the slip lasted at least this many frames (Estimator.SlipHoldMinFrames): a real one goes
   // on (the suite's slips: 16 to 30 slip frames a second), while a frame or two of vision alone
   // winning, among walkers not yet labelled, is no slip to hold on (threaded combined, 84.9 s: two
-  // such frames, then a blackout held the pose through a turn, 27 deg off).
+  // such frames, then a blackout held the pose through a turn, 27 deg off). Also what makes a spin
+  // (slipIsSpin frames) whose wheel edge sits out local BA's first round (stereo and RGB-D).
   int slip_hold_min_frames = 3;
   // A landmark counts as static (trusted: it may place a frame and count in the slip test) while
   // its probability of moving P_s stays below this (Estimator.TrustedMaxPs): one person label
