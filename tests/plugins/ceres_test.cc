@@ -324,5 +324,40 @@ TEST(CeresWheelCalibration, ItsStepIsAWalkInTimeWhateverTheKeyframeRate) {
   EXPECT_GT(calibrationMovedBy(30, 2.0, false) / slow, 10.0);
 }
 
+// The estimate as both hosts keep it between BAs: copied, its priors added, refined only by a BA
+// that had c free. The prior around zero is in the first BA's problem only; the step counts from
+// the last BA that refined c, not from one that held it fixed.
+TEST(CeresWheelCalibration, TheEstimateCarriesItsPriorAndClockFromBaToBa) {
+  const Eigen::Vector3d sigma(0.05, 0.05, 0.2), step(0.004, 0.002, 0.008);
+  ceres_adapters::WheelCalibrationEstimate est;
+  EXPECT_FALSE(est.learnt);
+  EXPECT_EQ(est.step(step, 0.5, 3.0), step);  // no BA yet: the full step
+  Eigen::Vector3d c = est.c;
+  ceres::Problem first;
+  est.addPriors(&first, c.data(), sigma, step, 0.5, 3.0);
+  EXPECT_EQ(first.NumResidualBlocks(), 2);  // around zero, around c
+  est.refined(Eigen::Vector3d(0.001, -0.002, 0.003), 3.0);
+  EXPECT_TRUE(est.learnt);
+  EXPECT_EQ(est.t, 3.0);
+  // A BA 0.125 s of data later (a quarter period): the prior around c alone, with half the step.
+  c = est.c;
+  ceres::Problem next;
+  est.addPriors(&next, c.data(), sigma, step, 0.5, 3.125);
+  ASSERT_EQ(next.NumResidualBlocks(), 1);
+  std::vector<ceres::ResidualBlockId> ids;
+  next.GetResidualBlocks(&ids);
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Vector3d at = est.c;
+    at[i] += step[i] / 2;  // one (halved) step off in one coordinate: a whitened residual of 1
+    const double* blocks[] = {at.data()};
+    Eigen::Vector3d r;
+    ASSERT_TRUE(next.GetCostFunctionForResidualBlock(ids[0])->Evaluate(blocks, r.data(), nullptr));
+    EXPECT_NEAR(r.norm(), 1.0, 1e-12) << i;
+  }
+  // A BA that held c fixed learnt nothing and is not refined(): the next, another 0.375 s on,
+  // counts from 3.0 s, a whole period: the full step.
+  EXPECT_EQ(est.step(step, 0.5, 3.5), step);
+}
+
 }  // namespace
 }  // namespace rvwo

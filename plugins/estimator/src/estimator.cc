@@ -196,10 +196,8 @@ struct Estimator::Impl {
   Se2XyzEdge<2> mono_edge;
   ReliabilityManager reliability;
   WheelOdometry odometry;
-  std::mutex odometry_mutex;                                // the wheel buffer is written by tracking, read by mapping
-  WheelCalibration calibration = WheelCalibration::Zero();  // the odometry's, refined by local BA (same lock)
-  bool calibration_learnt = false;  // a local BA has had it free (its prior around zero counted)
-  double calibration_t = NAN;       // the newest keyframe's time in the last BA that had it free
+  std::mutex odometry_mutex;                             // the wheel buffer is written by tracking, read by mapping
+  ceres_adapters::WheelCalibrationEstimate calibration;  // the odometry's, refined by local BA (same lock)
   bool has_odometry = false;
   std::shared_ptr<Segmenter> segmenter;
   std::unique_ptr<AsyncSegmenter> async;
@@ -548,7 +546,7 @@ struct Estimator::Impl {
     t0 = std::max(t0, odometry.firstTime());
     t1 = std::min(t1, odometry.lastTime());
     if (!(t1 > t0)) return std::nullopt;
-    return odometry.integrate(t0, t1, calibration);
+    return odometry.integrate(t0, t1, calibration.c);
   }
 
   FrontEnd frontEnd(const FrameInput& in) {
@@ -1304,19 +1302,15 @@ struct Estimator::Impl {
     // The odometry's calibration, a variable of the window's wheel edges: a prior around the last
     // estimate (opt.calibration_step, shared out over the time since that estimate), so that each
     // BA refines what the windows before found, and one around zero (opt.calibration_sigma) until
-    // a BA has had it free (addWheelCalibrationPriors).
-    WheelCalibration c;
-    bool calibration_first;
-    const double newest_t = *std::max_element(kf_t.begin(), kf_t.end());
-    Eigen::Vector3d step;
+    // a BA has had it free (WheelCalibrationEstimate::addPriors).
+    ceres_adapters::WheelCalibrationEstimate cal;
     {
       std::lock_guard<std::mutex> lock(odometry_mutex);
-      c = calibration;
-      calibration_first = !calibration_learnt;
-      step =
-          ceres_adapters::wheelCalibrationStep(opt.calibration_step, opt.calibration_period, newest_t - calibration_t);
+      cal = calibration;
     }
-    const WheelCalibration c_before = c;
+    const double newest_t = *std::max_element(kf_t.begin(), kf_t.end());
+    WheelCalibration c = cal.c;
+    const WheelCalibration& c_before = cal.c;
     const bool calibrate = opt.mode == Mode::kVw && opt.calibrate;
     struct WheelSpan {
       ceres::ResidualBlockId block;  // nullptr: not in the problem (yet)
@@ -1373,8 +1367,7 @@ struct Estimator::Impl {
       }
     }
     if (calibrate && problem.HasParameterBlock(c.data())) {
-      ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), opt.calibration_sigma, step, c_before,
-                                                calibration_first);
+      cal.addPriors(&problem, c.data(), opt.calibration_sigma, opt.calibration_step, opt.calibration_period, newest_t);
       // Mono has no metric but the wheels': scaling the window's map and the wheels' distance
       // scale together changes no residual, so that scale is left as it is (the turn scale and the
       // curvature are angles vision sees). Left free, it drifted to 0.976-0.994 over the mono suite
@@ -1474,11 +1467,9 @@ struct Estimator::Impl {
     // ---- write back under the lock ----
     std::lock_guard<std::mutex> lock(map_mutex);
     if (!summary.IsSolutionUsable() && problem.NumResidualBlocks() > 0) return;
-    if (calibrate && c.allFinite()) {
+    if (c_free && c.allFinite()) {  // (held fixed, c is c_before: nothing learnt)
       std::lock_guard<std::mutex> olock(odometry_mutex);
-      calibration = c;
-      calibration_learnt = calibration_learnt || c_free;
-      if (c_free) calibration_t = newest_t;
+      calibration.refined(c, newest_t);
     }
     for (std::size_t i = 0; i < kf_ids.size(); ++i) {
       if (fixed[i]) continue;
@@ -1665,7 +1656,7 @@ Report Estimator::report() const {
   r.wheel_edge_outliers = impl_->wheel_outliers;
   {
     std::lock_guard<std::mutex> olock(impl_->odometry_mutex);
-    r.wheel_calibration = impl_->calibration;
+    r.wheel_calibration = impl_->calibration.c;
   }
   r.timings = impl_->timings.stats();
   return r;

@@ -60,10 +60,8 @@ struct WheelInput::Impl {
   // The odometry's calibration, refined by each local map the wheels agree with (optimiseLocalMap)
   // and applied to every wheel delta (the suite's wheels: radii 1 % off each way, a turn-rate bias
   // of 0.9 deg/s at 0.3 m/s, which tight wheel edges between keyframes pressed onto the map).
-  WheelCalibration calibration = WheelCalibration::Zero();
-  bool calibration_learnt = false;  // a local map has had it free (its prior around zero counted)
-  double calibration_t = NAN;       // the newest keyframe's time in the last local map that had it free
-  WheelDelta integrate(double t0, double t1) const { return odometry.integrate(t0, t1, calibration); }
+  ceres_adapters::WheelCalibrationEstimate calibration;
+  WheelDelta integrate(double t0, double t1) const { return odometry.integrate(t0, t1, calibration.c); }
   std::size_t wheel_frames = 0;
   int run = 0;  // frames on the wheels in a row, this one included
   bool keyframe = false;
@@ -145,7 +143,7 @@ struct WheelInput::Impl {
     while (it != end) {
       ++it;
       if (!it->second) return std::nullopt;
-      const WheelDelta d = it->second->recalibrated(calibration);
+      const WheelDelta d = it->second->recalibrated(calibration.c);
       sum = sum ? compose(*sum, d) : d;
     }
     return sum;
@@ -589,7 +587,7 @@ std::size_t WheelInput::slipFrames() const { return impl_ ? impl_->slip_frames :
 Eigen::Vector3d WheelInput::calibration() const {
   if (!impl_) return Eigen::Vector3d::Zero();
   std::lock_guard<std::mutex> lock(impl_->mutex);
-  return impl_->calibration;
+  return impl_->calibration.c;
 }
 
 bool WheelInput::optimisesLocalMaps() const { return optimisesPoses() && impl_->params.local_map; }
@@ -640,10 +638,8 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   // What tracking shares: each point's shape (eq. 7) and the wheels between keyframes.
   std::vector<double> alpha(np, 1.0);
   std::vector<Impl::Span> spans;
-  WheelCalibration c;
-  bool calibration_first;
+  ceres_adapters::WheelCalibrationEstimate cal;
   double newest_t;
-  Eigen::Vector3d step;  // the prior around the last estimate: a random walk in time
   {
     std::vector<double> t(nk);
     std::vector<char> fixed(nk);
@@ -652,11 +648,8 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
       fixed[k] = pb.keyframes[k].fixed;
     }
     std::lock_guard<std::mutex> lock(m.mutex);
-    c = m.calibration;
-    calibration_first = !m.calibration_learnt;
+    cal = m.calibration;
     newest_t = *std::max_element(t.begin(), t.end());
-    step = ceres_adapters::wheelCalibrationStep(m.params.calibration_step, m.params.calibration_period,
-                                                newest_t - m.calibration_t);
     if (!m.params.huber)
       for (std::size_t i = 0; i < np; ++i) alpha[i] = m.reliability.alpha(pb.points[i].id);
     // ORB-SLAM3's local window is the covisible keyframes: mostly the last ones, whose wheel
@@ -692,7 +685,8 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   // The wheel edges, and the calibration as a variable of those the wheels did not slip on (a
   // slip would be taken for a scale error): a prior around zero and one around the last
   // estimate, so that each local map refines what those before found (as the estimator's).
-  const WheelCalibration c_before = c;
+  WheelCalibration c = cal.c;
+  const WheelCalibration& c_before = cal.c;
   std::vector<ceres::ResidualBlockId> calibrating;
   // Across a spin the first half goes without the wheel edge, and the second has it (Huber) only
   // where the keyframes agree with it: there from the start, even under Huber, it dragged new
@@ -724,8 +718,8 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     }
   }
   if (!calibrating.empty())
-    ceres_adapters::addWheelCalibrationPriors(&problem, c.data(), m.params.calibration_sigma, step, c_before,
-                                              calibration_first);
+    cal.addPriors(&problem, c.data(), m.params.calibration_sigma, m.params.calibration_step,
+                  m.params.calibration_period, newest_t);
   bool held = false;
   for (std::size_t k = 0; k < nk; ++k) {
     if (!problem.HasParameterBlock(x[k].data())) continue;
@@ -778,9 +772,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   }
   if (out->calibrated) {
     std::lock_guard<std::mutex> lock(m.mutex);
-    m.calibration = c;
-    m.calibration_learnt = true;
-    m.calibration_t = newest_t;
+    m.calibration.refined(c, newest_t);
   }
 
   // Outliers as ORB-SLAM3 judges them: beyond the chi2 gate (eq. 10's covariance) or behind.

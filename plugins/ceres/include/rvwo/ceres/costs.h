@@ -16,6 +16,7 @@
 #include <ceres/sized_cost_function.h>
 
 #include <Eigen/Core>
+#include <cmath>
 
 #include "rvwo/edges/se2_xyz_edge.h"
 #include "rvwo/edges/wheel_edge.h"
@@ -83,5 +84,33 @@ void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::
 // one period a BA keeps the full step (its window, not the time, then limits what it knows);
 // below 0.01 a BA on the same keyframes as the last still has a tenth of it.
 Eigen::Vector3d wheelCalibrationStep(const Eigen::Vector3d& step, double period, double dt);
+
+// The odometry's calibration as a run of BAs refines it, kept by the host between them (under
+// its own lock): the estimate, whether a BA has had it free yet (the prior around zero then
+// counted), and the newest keyframe's time in the last BA that had it free (the random walk's
+// clock). A BA copies it, starts its variable at c, adds addPriors, and calls refined() only if
+// c was free in the solve it keeps (a BA that held c fixed has learnt nothing of it).
+struct WheelCalibrationEstimate {
+  WheelCalibration c = WheelCalibration::Zero();
+  bool learnt = false;  // a BA has had c free: the prior around zero has been counted
+  double t = NAN;       // s: the newest keyframe of the last BA that had c free (NaN: none yet)
+
+  // The step of a BA whose newest keyframe is at newest_t (wheelCalibrationStep, period in s).
+  Eigen::Vector3d step(const Eigen::Vector3d& step_per_period, double period, double newest_t) const {
+    return wheelCalibrationStep(step_per_period, period, newest_t - t);
+  }
+  // addWheelCalibrationPriors on the BA's variable c_var (started at c) for a BA whose newest
+  // keyframe is at newest_t: around c with step(), and around zero with sigma unless learnt.
+  void addPriors(ceres::Problem* problem, double* c_var, const Eigen::Vector3d& sigma,
+                 const Eigen::Vector3d& step_per_period, double period, double newest_t) const {
+    addWheelCalibrationPriors(problem, c_var, sigma, step(step_per_period, period, newest_t), c, !learnt);
+  }
+  // A BA whose newest keyframe is at newest_t had c free and found c_new.
+  void refined(const WheelCalibration& c_new, double newest_t) {
+    c = c_new;
+    learnt = true;
+    t = newest_t;
+  }
+};
 
 }  // namespace rvwo::ceres_adapters
