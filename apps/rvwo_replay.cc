@@ -788,15 +788,23 @@ int main(int argc, char** argv) {
     std::unique_ptr<rvwo::apps::Plot> traj_plot, err_plot;
     if (!gt_arg.getValue().empty()) {
       const rvwo::apps::Trajectory gt = rvwo::apps::readTum(gt_arg.getValue());
-      const auto pairs = rvwo::apps::associate(gt, est, 0.01);
-      if (pairs.size() < 3)
-        throw std::runtime_error(gt_arg.getValue() + ": fewer than 3 poses match the frames' times");
-      const auto a = rvwo::apps::ate(gt, est, pairs, rvwo::apps::parseAlignment(align_arg.getValue()));
-      const double path = rvwo::apps::pathLength(gt, pairs);
+      const rvwo::apps::Alignment alignment = rvwo::apps::parseAlignment(align_arg.getValue());
+      // The ATE of a trajectory against the ground truth (frames paired by time), one report line.
+      const auto reportAte = [&](const std::string& what, const rvwo::apps::Trajectory& traj,
+                                 std::vector<std::pair<std::size_t, std::size_t>>* pairs_out) {
+        auto pairs = rvwo::apps::associate(gt, traj, 0.01);
+        if (pairs.size() < 3)
+          throw std::runtime_error(gt_arg.getValue() + ": fewer than 3 poses match the frames' times");
+        auto a = rvwo::apps::ate(gt, traj, pairs, alignment);
+        const double path = rvwo::apps::pathLength(gt, pairs);
+        std::printf("  %s: rmse %.4f m = %.3f %% of the %.1f m path; mean %.4f, max %.4f m\n", what.c_str(),
+                    a.stats.rmse, 100 * a.stats.rmse / path, path, a.stats.mean, a.stats.max);
+        *pairs_out = std::move(pairs);
+        return a;
+      };
+      std::vector<std::pair<std::size_t, std::size_t>> pairs;
+      const auto a = reportAte("ATE (" + align_arg.getValue() + ")", est, &pairs);
       const auto step = rvwo::apps::rpe(gt, est, pairs, 1, false);
-      std::printf("  ATE (%s): rmse %.4f m = %.3f %% of the %.1f m path; mean %.4f, max %.4f m\n",
-                  align_arg.getValue().c_str(), a.stats.rmse, 100 * a.stats.rmse / path, path, a.stats.mean,
-                  a.stats.max);
 #ifdef RVWO_WITH_ORBSLAM3
       // ORB-SLAM3 without the wheels loses frames (a blackout), and those of a map it started
       // afterwards and never merged are not in its saved trajectory (only its biggest map's are):
@@ -804,16 +812,9 @@ int main(int argc, char** argv) {
       // kept, the figure is what its user had, comparable with a run that kept them all
       // (upstream, blackout: 2162 of 2698 frames kept, 0.0077 m over those, 0.87 m over all).
       if (orbslam3 && est.size() < orbslam3->frameTimes().size()) {
-        const rvwo::apps::Trajectory held = rvwo::apps::heldAtLastPose(est, orbslam3->frameTimes(), 1e-6);
-        const auto held_pairs = rvwo::apps::associate(gt, held, 0.01);
-        if (held_pairs.size() >= 3) {
-          const auto h = rvwo::apps::ate(gt, held, held_pairs, rvwo::apps::parseAlignment(align_arg.getValue()));
-          const double held_path = rvwo::apps::pathLength(gt, held_pairs);
-          std::printf(
-              "  ATE over every frame (one without a pose at the last pose kept): rmse %.4f m = %.3f %% of the %.1f m "
-              "path; max %.4f m\n",
-              h.stats.rmse, 100 * h.stats.rmse / held_path, held_path, h.stats.max);
-        }
+        std::vector<std::pair<std::size_t, std::size_t>> held_pairs;
+        reportAte("ATE over every frame (one without a pose at the last pose kept)",
+                  rvwo::apps::heldAtLastPose(est, orbslam3->frameTimes(), 1e-6), &held_pairs);
       }
 #endif
       std::printf("  largest frame-to-frame error (RPE, 1 frame): %.4f m\n", step.stats.max);
