@@ -789,7 +789,8 @@ int main(int argc, char** argv) {
     if (!gt_arg.getValue().empty()) {
       const rvwo::apps::Trajectory gt = rvwo::apps::readTum(gt_arg.getValue());
       const rvwo::apps::Alignment alignment = rvwo::apps::parseAlignment(align_arg.getValue());
-      // The ATE of a trajectory against the ground truth (frames paired by time), one report line.
+      // The ATE of a trajectory against the ground truth (frames paired by time), one report line;
+      // the pairs to pairs_out unless null.
       const auto reportAte = [&](const std::string& what, const rvwo::apps::Trajectory& traj,
                                  std::vector<std::pair<std::size_t, std::size_t>>* pairs_out) {
         auto pairs = rvwo::apps::associate(gt, traj, 0.01);
@@ -799,7 +800,7 @@ int main(int argc, char** argv) {
         const double path = rvwo::apps::pathLength(gt, pairs);
         std::printf("  %s: rmse %.4f m = %.3f %% of the %.1f m path; mean %.4f, max %.4f m\n", what.c_str(),
                     a.stats.rmse, 100 * a.stats.rmse / path, path, a.stats.mean, a.stats.max);
-        *pairs_out = std::move(pairs);
+        if (pairs_out) *pairs_out = std::move(pairs);
         return a;
       };
       std::vector<std::pair<std::size_t, std::size_t>> pairs;
@@ -812,9 +813,8 @@ int main(int argc, char** argv) {
       // kept, the figure is what its user had, comparable with a run that kept them all
       // (upstream, blackout: 2162 of 2698 frames kept, 0.0077 m over those, 0.87 m over all).
       if (orbslam3 && est.size() < orbslam3->frameTimes().size()) {
-        std::vector<std::pair<std::size_t, std::size_t>> held_pairs;
         reportAte("ATE over every frame (one without a pose at the last pose kept)",
-                  rvwo::apps::heldAtLastPose(est, orbslam3->frameTimes(), 1e-6), &held_pairs);
+                  rvwo::apps::heldAtLastPose(est, orbslam3->frameTimes(), 1e-6), nullptr);
       }
 #endif
       std::printf("  largest frame-to-frame error (RPE, 1 frame): %.4f m\n", step.stats.max);

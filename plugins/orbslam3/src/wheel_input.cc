@@ -692,14 +692,16 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   // where the keyframes agree with it: there from the start, even under Huber, it dragged new
   // keyframes along the spinning wheels where vision sees little (forward, on far points), as in
   // the estimator's local BA (stereo combined seed 3: 0.85 % of the path, 0.10 % without).
-  std::vector<WheelEdge> spin_edges;
-  std::vector<std::pair<std::size_t, std::size_t>> spin_ends;
+  struct HeldOut {
+    WheelEdge edge;
+    std::size_t a, b;
+  };
+  std::vector<HeldOut> spin_edges;
   for (const Impl::Span& sp : spans) {
     try {
       const WheelEdge edge(sp.delta);
       if (sp.spin) {
-        spin_edges.push_back(edge);
-        spin_ends.emplace_back(sp.a, sp.b);
+        spin_edges.push_back({edge, sp.a, sp.b});
         continue;
       }
       if (sp.slipped) {
@@ -757,10 +759,9 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
         problem.SetParameterBlockConstant(c.data());
       }
       for (std::size_t k = 0; summary.IsSolutionUsable() && k < spin_edges.size(); ++k) {
-        const auto [a, b] = spin_ends[k];
-        const WheelEdge& edge = spin_edges[k];
-        if ((edge.sqrtInformation() * edge.residual(x[a], x[b])).squaredNorm() > kChi2WheelOutlier ||
-            !problem.HasParameterBlock(x[a].data()) || !problem.HasParameterBlock(x[b].data()))
+        const auto& [edge, a, b] = spin_edges[k];
+        if (wheelEdgeStrained(edge, x[a], x[b]) || !problem.HasParameterBlock(x[a].data()) ||
+            !problem.HasParameterBlock(x[b].data()))
           continue;
         problem.AddResidualBlock(new ceres_adapters::WheelCost(edge),
                                  new ceres::HuberLoss(std::sqrt(kChi2WheelOutlier)), x[a].data(), x[b].data());
