@@ -332,6 +332,7 @@ class OrbSlam3Backend {
     w.calibrate = opt.calibrate;
     if (const auto v = settings.number("LocalMapping.Planar")) w.local_map = *v != 0;
     if (const auto v = settings.number("LocalMapping.MaxWheelSpan")) w.max_wheel_span = *v;
+    w.spin_min_frames = opt.slip_hold_min_frames;  // one key for both hosts: Estimator.SlipHoldMinFrames
     std::vector<std::pair<std::string, std::string>> more;
     for (const char* prefix : {"Odometry.Noise", "Reliability.", "Semantics.", "LoopClosing.", "Initializer."}) {
       for (const std::string& key : settings.keysWithPrefix(prefix)) {

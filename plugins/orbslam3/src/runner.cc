@@ -94,6 +94,7 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
         << "\nTracking.SlipCheck: " << (wheels->slip_check ? 1 : 0) << "\n";
     out << "LocalMapping.Planar: " << (wheels->local_map ? 1 : 0)
         << "\nLocalMapping.MaxWheelSpan: " << real(wheels->max_wheel_span)
+        << "\nLocalMapping.SpinMinFrames: " << wheels->spin_min_frames
         << "\nOdometry.Calibrate: " << (wheels->calibrate ? 1 : 0) << "\n";
     for (const auto& [key, value] : more) out << key << ": " << value << "\n";
   }

@@ -48,6 +48,7 @@ struct WheelInput::Impl {
     drive.validate();
     noise.validate();
     if (!(p.calibration_period > 0)) throw std::invalid_argument("WheelInputParams: calibration_period must be > 0 s");
+    if (p.spin_min_frames < 1) throw std::invalid_argument("WheelInputParams: spin_min_frames must be >= 1");
     out_of_plane.sigma_z = p.sigma_z;
     out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * p.sigma_rollpitch * p.sigma_rollpitch;
   }
@@ -103,11 +104,10 @@ struct WheelInput::Impl {
   // Of those, the frames where the robot about stood while the wheels went on (slipIsSpin), once
   // each however often a frame was solved; kept as the slips are (8 bytes a frame).
   std::deque<double> spins;
-  static constexpr int kSpinFrames = 3;  // the estimator's Estimator.SlipHoldMinFrames
   bool spinBetween(double ti, double tj) const {
     int n = 0;
     for (auto it = std::upper_bound(spins.begin(), spins.end(), ti); it != spins.end() && *it <= tj; ++it) ++n;
-    return n >= kSpinFrames;
+    return n >= params.spin_min_frames;
   }
   bool covers(double ti, double tj) const {
     return !odometry.empty() && ti <= tj && odometry.firstTime() <= ti && tj <= odometry.lastTime();
@@ -156,7 +156,7 @@ struct WheelInput::Impl {
     std::size_t a, b;
     WheelDelta delta;
     bool slipped;
-    bool spin;  // across kSpinFrames spin frames or more (stereo, RGB-D): the local map's second half only
+    bool spin;  // across spin_min_frames spin frames or more (stereo, RGB-D): the local map's second half only
   };
   std::vector<Span> wheelSpans(const std::vector<double>& t, const std::vector<char>& fixed) {
     remember(t);
@@ -288,6 +288,11 @@ void WheelInput::configure(const std::string& settings_path) {
   p.slip_check = s.number("Tracking.SlipCheck").value_or(1.0) != 0.0;
   p.local_map = s.number("LocalMapping.Planar").value_or(1.0) != 0.0;
   p.max_wheel_span = s.number("LocalMapping.MaxWheelSpan").value_or(p.max_wheel_span);
+  const double spin_frames = s.number("LocalMapping.SpinMinFrames").value_or(p.spin_min_frames);
+  if (!(spin_frames >= 1 && spin_frames <= 1000 && spin_frames == std::floor(spin_frames)))
+    throw std::invalid_argument(settings_path +
+                                ": LocalMapping.SpinMinFrames must be a whole number of frames, 1 to 1000");
+  p.spin_min_frames = static_cast<int>(spin_frames);
   p.init_min_travel = s.number("Initializer.MinTravel").value_or(p.init_min_travel);
   p.init_max_turn = s.number("Initializer.MaxTurnError").value_or(p.init_max_turn);
   p.init_max_path = s.number("Initializer.MaxPathError").value_or(p.init_max_path);

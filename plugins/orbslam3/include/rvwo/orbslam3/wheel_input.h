@@ -88,6 +88,9 @@ struct WheelInputParams {
   double max_wheel_span = 5.0;  // s: the longest stretch between keyframes a wheel edge of the
                                 // local map spans (calibration errors grow beyond its covariance)
                                 // [LocalMapping.MaxWheelSpan]
+  int spin_min_frames = 3;      // frames where vision saw the robot stand while the wheels went on that make
+                                // a spin: a wheel edge across one sits out the local map's first round
+                                // [LocalMapping.SpinMinFrames] (the estimator's Estimator.SlipHoldMinFrames)
   // ---- a monocular map's first two keyframes against the wheels (monocularScale)
   double init_min_travel = 0.05;  // m: the wheels' travel between them below which vision's motion
                                   // is taken for a rotation alone [Initializer.MinTravel]
