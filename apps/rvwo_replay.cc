@@ -761,8 +761,8 @@ int main(int argc, char** argv) {
     if (opt.mode == rvwo::estimator::Mode::kVw && !use_orbslam3) {
       std::printf(
           "  frames where vision overruled the wheels (a slip): %zu; wheel edges local BA found wrong: %zu; "
-          "relocalised: %zu\n",
-          rep.slip_frames, rep.wheel_edge_outliers, rep.relocalisations);
+          "relocalised: %zu; placed by the landmarks the wheels explain: %zu\n",
+          rep.slip_frames, rep.wheel_edge_outliers, rep.relocalisations, rep.wheel_gated);
     }
     if (opt.mode == rvwo::estimator::Mode::kVw && opt.calibrate) {
       const rvwo::WheelCalibration& c = rep.wheel_calibration;

@@ -209,6 +209,10 @@ TEST(Options, FromSettings) {
   EXPECT_DOUBLE_EQ(o.slip_hold, 1.5);
   EXPECT_DOUBLE_EQ(o.trusted_max_ps, 0.2);
   EXPECT_EQ(o.slip_hold_min_frames, 3);  // the default where the file is silent
+  EXPECT_TRUE(o.wheel_gate);             // on by default
+  EXPECT_FALSE(
+      readEstimatorOptions(rvwo::Settings::fromString(std::string(kSettings) + "Estimator.WheelGate: 0\n", "s.yaml"))
+          .wheel_gate);
   EXPECT_DOUBLE_EQ(o.reliability.p_h, 0.8);
 }
 

@@ -1,7 +1,8 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 // optimisePlanarPose: recovers a known pose from noisy matches with gross outliers, at any angle
 // (near +-pi too); the estimate is a stationary point of the robust cost it claims to minimise;
-// the wheel prior alone gives its own mean; rejected and unusable matches never move the pose.
+// the wheel prior alone gives its own mean; rejected and unusable matches never move the pose;
+// solved from the wheels' prediction, walkers stay out and what fits the new pose comes back.
 #include <gtest/gtest.h>
 
 #include <random>
@@ -172,6 +173,60 @@ TEST(PlanarPose, RejectedAndUnusableMatchesNeverMoveThePose) {
       EXPECT_GT(r.error[k], 0.0);  // still measured
     }
   }
+}
+
+// The wheel gate's solve (solveFromTheWheels): the first round on the matches the wheels'
+// prediction explains, the later ones on any the new pose explains. Walkers that agree among
+// themselves on a pose 1 cm and 10 mrad off outnumber the static landmarks 3 to 2: solved on all,
+// the pose goes their way; from the wheels' prediction (5 cm short along the heading) it stays
+// with the static landmarks, the walkers stay out, and the near static landmarks that prediction
+// put beyond their gate come back once the far ones have corrected it.
+TEST(PlanarPose, SolvedFromTheWheelsTheWalkersStayOutAndWhatFitsComesBack) {
+  const Eigen::Vector3d x_true(1.0, -2.0, 0.7);
+  Scene s(x_true, 100, 0.0, 5);
+  const Eigen::Vector3d x_walkers = x_true + Eigen::Vector3d(0.0, 0.01, 0.01);
+  Scene walkers(x_walkers, 150, 0.0, 6);
+  std::vector<PoseObservation> obs = s.obs;  // then the walkers: seen as if from x_walkers
+  obs.insert(obs.end(), walkers.obs.begin(), walkers.obs.end());
+  const PlanarPoseOptions opt;
+  Eigen::Vector3d x_all = x_true;
+  optimisePlanarPose(s.mono, &s.stereo, obs, WheelPrior{}, opt, &x_all);
+  EXPECT_GT(angleError(x_all.z(), x_true.z()), 5e-3);  // dragged at least half way
+  const Eigen::Vector3d x_pred = (SE2::fromVector(x_true) * SE2(-0.05, 0.0, 0.0)).vector();
+  std::vector<char> out_at_pred(obs.size(), 0);
+  for (std::size_t k = 0; k < s.obs.size(); ++k) {
+    double e2 = 1e9;
+    out_at_pred[k] =
+        !whitenedChi2(s.mono, &s.stereo, obs[k], x_pred, opt.out_of_plane, &e2) || e2 > chi2Gate(obs[k].stereo);
+  }
+  const int static_out_at_pred = static_cast<int>(std::count(out_at_pred.begin(), out_at_pred.end(), 1));
+  EXPECT_GE(static_out_at_pred, 10);
+  EXPECT_LE(static_out_at_pred, 60);
+  const std::vector<char> counted(obs.size(), 1);
+  Eigen::Vector3d x = Eigen::Vector3d::Constant(9);
+  PlanarPoseResult r;
+  ASSERT_TRUE(solveFromTheWheels(s.mono, &s.stereo, obs, WheelPrior{}, opt, x_pred, counted, 30, &x, &r));
+  EXPECT_LT((x.head<2>() - x_true.head<2>()).norm(), 6e-3);  // 4 mm here: the noise of 100 matches
+  EXPECT_LT(angleError(x.z(), x_true.z()), 5e-4);
+  int static_in = 0, came_back = 0, walkers_in = 0;
+  for (std::size_t k = 0; k < obs.size(); ++k) {
+    (k < s.obs.size() ? static_in : walkers_in) += r.inlier[k];
+    came_back += out_at_pred[k] && r.inlier[k];
+  }
+  EXPECT_GT(static_in, 85);
+  EXPECT_GT(came_back, 0.8 * static_out_at_pred);
+  EXPECT_LT(walkers_in, 15);
+  // Too few agree: nothing solved, nothing touched.
+  x = Eigen::Vector3d::Constant(9);
+  EXPECT_FALSE(solveFromTheWheels(s.mono, &s.stereo, obs, WheelPrior{}, opt, x_pred, counted, 400, &x, &r));
+  EXPECT_EQ(x, Eigen::Vector3d::Constant(9));
+  // Only counted matches count: of the static ones (100), fewer agree than all of them.
+  std::vector<char> static_only(obs.size(), 0);
+  std::fill(static_only.begin(), static_only.begin() + static_cast<std::ptrdiff_t>(s.obs.size()), 1);
+  EXPECT_FALSE(solveFromTheWheels(s.mono, &s.stereo, obs, WheelPrior{}, opt, x_pred, static_only,
+                                  100 - static_out_at_pred + 1, &x, &r));
+  EXPECT_TRUE(solveFromTheWheels(s.mono, &s.stereo, obs, WheelPrior{}, opt, x_pred, static_only,
+                                 100 - static_out_at_pred, &x, &r));
 }
 
 TEST(WheelsAgainstVision, SlipIsWheelsClaimingMotionVisionDidNotSee) {

@@ -138,6 +138,7 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Estimator.SlipHold", &o.slip_hold);
   num("Estimator.SlipHoldMinFrames", &o.slip_hold_min_frames);
   num("Estimator.TrustedMaxPs", &o.trusted_max_ps);
+  if (const auto v = s.number("Estimator.WheelGate")) o.wheel_gate = *v != 0;
   num("Estimator.SigmaZ", &o.out_of_plane.sigma_z);
   if (const auto v = s.number("Estimator.SigmaRollPitch"))
     o.out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * (*v) * (*v);

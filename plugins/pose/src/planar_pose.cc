@@ -62,7 +62,8 @@ PlanarPoseResult optimisePlanarPose(const Se2XyzMonoEdge& mono, const Se2XyzSter
                                     const PlanarPoseOptions& opt, Eigen::Vector3d* x) {
   const std::size_t n = obs.size();
   PlanarPoseResult out;
-  out.inlier.assign(n, 1);
+  out.inlier.resize(n);
+  for (std::size_t k = 0; k < n; ++k) out.inlier[k] = obs[k].first_round;
   out.error.assign(n, 0.0);
   std::vector<char> usable(n);
   std::vector<BarronKernel> kernel;  // per match, made once (its constants depend on alpha alone)
@@ -223,6 +224,24 @@ bool wheelsStall(const WheelDelta& stretch, const SE2& T_b0_b1_vision) {
 
 bool wheelEdgeStrained(const WheelEdge& edge, const Eigen::Vector3d& x_prev, const Eigen::Vector3d& x) {
   return (edge.sqrtInformation() * edge.residual(x_prev, x)).squaredNorm() > kChi2WheelOutlier;
+}
+
+bool solveFromTheWheels(const Se2XyzMonoEdge& mono, const Se2XyzStereoEdge* stereo, std::vector<PoseObservation> obs,
+                        const WheelPrior& prior, const PlanarPoseOptions& opt, const Eigen::Vector3d& x_predicted,
+                        const std::vector<char>& counted, int min_agree, Eigen::Vector3d* x, PlanarPoseResult* r) {
+  if (counted.size() != obs.size()) throw std::invalid_argument("solveFromTheWheels: counted and obs differ in size");
+  int agree = 0;
+  for (std::size_t k = 0; k < obs.size(); ++k) {
+    double e2 = 1e9;
+    PoseObservation& o = obs[k];
+    o.first_round = o.usable && (opt.huber || o.alpha != -BarronKernel::kInfinity) &&
+                    whitenedChi2(mono, stereo, o, x_predicted, opt.out_of_plane, &e2) && e2 <= chi2Gate(o.stereo);
+    agree += o.first_round && counted[k];
+  }
+  if (agree < min_agree) return false;
+  *x = x_predicted;
+  *r = optimisePlanarPose(mono, stereo, obs, prior, opt, x);
+  return true;
 }
 
 bool slipWorthChecking(bool was_slipping, bool strained, std::size_t matches, int fused_inliers) {

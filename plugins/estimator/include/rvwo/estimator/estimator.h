@@ -61,6 +61,7 @@ struct Report {
   std::size_t slip_frames = 0;          // frames where vision alone explained clearly more than vision with the wheels
   std::size_t wheel_edge_outliers = 0;  // wheel edges local BA found contradicted by vision (slips, skids)
   std::size_t relocalisations = 0;      // blind frames placed on the map by descriptor matching
+  std::size_t wheel_gated = 0;          // frames placed by the landmarks the wheels explain (wheel_gate)
   WheelCalibration wheel_calibration = WheelCalibration::Zero();  // the odometry's, as estimated (vw)
   std::vector<std::pair<std::string, TimingStats>> timings;       // per stage
 };

@@ -28,12 +28,13 @@ inline double chi2Gate(bool stereo) { return stereo ? kChi2Stereo : kChi2Mono; }
 
 // One match of the frame: a landmark and the keypoint it was found at.
 struct PoseObservation {
-  Eigen::Vector3d P_w;    // landmark, planar world frame [m]
-  Eigen::Vector3d z;      // (u, v, u_R) [px]; u_R used only when stereo
-  bool stereo = false;    // a right-image (or depth) coordinate: 3-DoF residual
-  double sigma_px = 1.0;  // keypoint noise [px] (pyramidSigma of its level)
-  double alpha = 1.0;     // Barron shape of the landmark (eq. 7); -inf: rejected, never used
-  bool usable = true;     // false: classified against the gate, never places the pose
+  Eigen::Vector3d P_w;      // landmark, planar world frame [m]
+  Eigen::Vector3d z;        // (u, v, u_R) [px]; u_R used only when stereo
+  bool stereo = false;      // a right-image (or depth) coordinate: 3-DoF residual
+  double sigma_px = 1.0;    // keypoint noise [px] (pyramidSigma of its level)
+  double alpha = 1.0;       // Barron shape of the landmark (eq. 7); -inf: rejected, never used
+  bool usable = true;       // false: classified against the gate, never places the pose
+  bool first_round = true;  // false: left out of the first round, classified after it like any
 };
 
 struct PlanarPoseOptions {
@@ -82,6 +83,19 @@ constexpr double kChi2WheelOutlier = 16.27;
 // Whether the wheel edge from x_prev to x lies beyond its gate: vision held the pose where the
 // wheels' claim does not fit (a strained compromise).
 bool wheelEdgeStrained(const WheelEdge& edge, const Eigen::Vector3d& x_prev, const Eigen::Vector3d& x);
+
+// The wheel gate: the pose solved with the wheel edge strains it (wheelEdgeStrained) and vision
+// alone did not win (no slip), so the wheels hold and what pulls against them is suspect: walkers
+// no label marks drag the fused pose a few millimetres and milliradians a frame, each frame's
+// edge starting where the last one was dragged. The pose is solved again from the wheels'
+// prediction x_predicted, with the prior: its first round on the usable matches that prediction
+// explains (within their gate there), its later rounds on any the new pose explains (kept out for
+// good, they bent frames over a bumpy floor towards the wheels' jitter). counted: the matches
+// that count towards min_agree (the host's trusted ones). Sets *x and returns true with the new
+// result in *r, or returns false (both untouched) when fewer than min_agree counted matches agree.
+bool solveFromTheWheels(const Se2XyzMonoEdge& mono, const Se2XyzStereoEdge* stereo, std::vector<PoseObservation> obs,
+                        const WheelPrior& prior, const PlanarPoseOptions& opt, const Eigen::Vector3d& x_predicted,
+                        const std::vector<char>& counted, int min_agree, Eigen::Vector3d* x, PlanarPoseResult* r);
 
 // What the wheels' noise allows between them and vision over one delta: 3 sigma + 5 mm / 5 mrad.
 struct WheelTolerance {
