@@ -329,6 +329,7 @@ class OrbSlam3Backend {
     w.sigma_z = opt.out_of_plane.sigma_z;
     w.sigma_rollpitch = std::sqrt(opt.out_of_plane.sigma_rollpitch(0, 0));
     if (const auto v = settings.number("Tracking.SlipCheck")) w.slip_check = *v != 0;
+    w.wheel_gate = opt.wheel_gate;  // Estimator.WheelGate
     w.calibrate = opt.calibrate;
     if (const auto v = settings.number("LocalMapping.Planar")) w.local_map = *v != 0;
     if (const auto v = settings.number("LocalMapping.MaxWheelSpan")) w.max_wheel_span = *v;

@@ -261,9 +261,12 @@ TEST(EssentialGraph, KeyframesKeepTheirWheelsAfterTheReadingsAreDropped) {
     all.errors(&rms_a, &yaw_a, &off_a);
     EXPECT_NEAR(rms_t, rms_a, 1e-6) << vision_sigma;
     EXPECT_NEAR(yaw_t, yaw_a, 1e-6) << vision_sigma;
-    for (int k = 0; k < Circle::kKeyFrames; ++k)
+    for (int k = 0; k < Circle::kKeyFrames; ++k) {
       EXPECT_LT((tracked.kfs[k]->pose.t - all.kfs[k]->pose.t).norm(), 1e-5f) << vision_sigma << " " << k;
-    if (vision_sigma > 0) EXPECT_LT(rms_t, 0.01);
+    }
+    if (vision_sigma > 0) {
+      EXPECT_LT(rms_t, 0.01);
+    }
   }
 }
 

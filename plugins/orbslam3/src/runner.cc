@@ -91,7 +91,8 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
         << (wheels->huber ? "huber" : "adaptive") << "\"\nTracking.BarronScale: " << real(wheels->barron_scale)
         << "\nTracking.SigmaZ: " << real(wheels->sigma_z)
         << "\nTracking.SigmaRollPitch: " << real(wheels->sigma_rollpitch)
-        << "\nTracking.SlipCheck: " << (wheels->slip_check ? 1 : 0) << "\n";
+        << "\nTracking.SlipCheck: " << (wheels->slip_check ? 1 : 0)
+        << "\nTracking.WheelGate: " << (wheels->wheel_gate ? 1 : 0) << "\n";
     out << "LocalMapping.Planar: " << (wheels->local_map ? 1 : 0)
         << "\nLocalMapping.MaxWheelSpan: " << real(wheels->max_wheel_span)
         << "\nLocalMapping.SpinMinFrames: " << wheels->spin_min_frames

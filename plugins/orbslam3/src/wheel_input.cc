@@ -286,6 +286,7 @@ void WheelInput::configure(const std::string& settings_path) {
   p.sigma_z = s.number("Tracking.SigmaZ").value_or(p.sigma_z);
   p.sigma_rollpitch = s.number("Tracking.SigmaRollPitch").value_or(p.sigma_rollpitch);
   p.slip_check = s.number("Tracking.SlipCheck").value_or(1.0) != 0.0;
+  p.wheel_gate = s.number("Tracking.WheelGate").value_or(1.0) != 0.0;
   p.local_map = s.number("LocalMapping.Planar").value_or(1.0) != 0.0;
   p.max_wheel_span = s.number("LocalMapping.MaxWheelSpan").value_or(p.max_wheel_span);
   const double spin_frames = s.number("LocalMapping.SpinMinFrames").value_or(p.spin_min_frames);
@@ -526,11 +527,11 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   // the pose (looksLikeSlip).
   bool slip = false;
   double slip_from = from_anchor ? m.anchor.t : pb.t_previous;
+  const bool strained = edge && wheelEdgeStrained(*edge, x_prev, x);
   if (edge && m.params.slip_check) {
     // Vision alone every frame (0.5 to 2 ms for 100 to 300 matches, rvwo_bench_pose; ORB-SLAM3's
     // TrackFrame averaged 26 to 28 ms on the stereo slip scenario with it): its own track is what
     // shows wheels that creep.
-    const bool strained = wheelEdgeStrained(*edge, x_prev, x);
     Eigen::Vector3d x_vision = x_prev;
     PlanarPoseResult rv =
         optimisePlanarPose(*m.mono, m.stereo ? &*m.stereo : nullptr, obs, WheelPrior{}, opt, &x_vision);
@@ -571,6 +572,18 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
       r = std::move(rv);
       m.markSlip(slip_from, pb.t);
       if (slipIsSpin(*delta, e.T_b0_b1_vision) && (m.spins.empty() || m.spins.back() < pb.t)) m.spins.push_back(pb.t);
+    }
+  }
+  // The wheel gate (rvwo::solveFromTheWheels; adaptive kernel, stereo and RGB-D), the estimator's:
+  // walkers no label marks drag the fused pose off the wheels a little every frame. Not from the
+  // anchor: vision back after frames on the wheels corrects their drift.
+  if (strained && !slip && !from_anchor && m.params.wheel_gate && !m.params.huber && m.params.map_from_depth) {
+    const Eigen::Vector3d x_predicted = (SE2::fromVector(x_prev) * delta->pose()).vector();
+    constexpr int kMinPlace = 30;  // ORB-SLAM3's bar for a tracked frame
+    PlanarPoseResult gated;
+    if (solveFromTheWheels(*m.mono, m.stereo ? &*m.stereo : nullptr, obs, WheelPrior{&*edge, x_prev}, opt, x_predicted,
+                           trusted, kMinPlace, &x, &gated)) {
+      r = std::move(gated);
     }
   }
   m.slipping = slip;

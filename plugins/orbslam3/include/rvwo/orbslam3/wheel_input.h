@@ -75,6 +75,9 @@ struct WheelInputParams {
   double sigma_z = 0.01;          // m: the body's height off the plane [Tracking.SigmaZ]
   double sigma_rollpitch = 0.01;  // rad: its roll and pitch [Tracking.SigmaRollPitch]
   bool slip_check = true;         // vision alone may overrule wheels that slip [Tracking.SlipCheck: 1 | 0]
+  bool wheel_gate = true;         // where the fused pose strains the wheel edge and vision alone does not
+                                  // win, solved again from the wheels' prediction (solveFromTheWheels;
+                                  // adaptive kernel) [Tracking.WheelGate: 1 | 0]
   bool local_map = true;          // optimiseLocalMap answers (with planar) [LocalMapping.Planar: 1 | 0]
   bool calibrate = true;          // the local map refines the odometry's calibration (distance
                                   // scale, turn scale, curvature), applied to every wheel edge
