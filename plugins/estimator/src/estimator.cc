@@ -760,8 +760,8 @@ struct Estimator::Impl {
       // The wheel gate (Estimator.WheelGate; adaptive kernel, stereo and RGB-D: rvwo::solveFromTheWheels).
       // Not when vision comes back after frames on the wheels: there it corrects their drift (the
       // ONNX network threaded, missing the walkers, is on the wheels for some 300 frames: four runs
-      // gave 0.25-0.77 % of the path with the gate held there, 0.10-0.32 % now, 0.09-0.30 % without
-      // the gate).
+      // gave 0.25-0.77 % of the path with the gate held there, six 0.10-0.34 % now, six 0.09-0.91 %
+      // without the gate).
       PlanarPoseResult gated;
       if (opt.wheel_gate && opt.kernel == KernelChoice::kAdaptive && rig.sensor != Sensor::kMono && strained &&
           !slipping && last_visual &&
