@@ -10,6 +10,11 @@
 namespace rvwo {
 namespace {
 
+// Whether a match may place the pose: usable, and not rejected by its kernel (Huber ignores alpha).
+bool placesThePose(const PoseObservation& o, const PlanarPoseOptions& opt) {
+  return o.usable && (opt.huber || o.alpha != -BarronKernel::kInfinity);
+}
+
 // IRLS weight rho'(s) of a squared whitened error s: Huber at the gate's root, or Barron.
 double weight(double s, const BarronKernel& kernel, bool huber, bool stereo) {
   if (huber) {
@@ -72,7 +77,7 @@ PlanarPoseResult optimisePlanarPose(const Se2XyzMonoEdge& mono, const Se2XyzSter
     const PoseObservation& o = obs[k];
     if (o.stereo && !stereo)
       throw std::invalid_argument("optimisePlanarPose: a stereo observation without a stereo edge");
-    usable[k] = o.usable && (opt.huber || o.alpha != -BarronKernel::kInfinity);
+    usable[k] = placesThePose(o, opt);
     kernel.emplace_back(o.alpha, std::sqrt(chi2Gate(o.stereo)) * opt.barron_scale);
   }
   std::vector<Eigen::Matrix3d> S3(n);
@@ -234,8 +239,8 @@ bool solveFromTheWheels(const Se2XyzMonoEdge& mono, const Se2XyzStereoEdge* ster
   for (std::size_t k = 0; k < obs.size(); ++k) {
     double e2 = 1e9;
     PoseObservation& o = obs[k];
-    o.first_round = o.usable && (opt.huber || o.alpha != -BarronKernel::kInfinity) &&
-                    whitenedChi2(mono, stereo, o, x_predicted, opt.out_of_plane, &e2) && e2 <= chi2Gate(o.stereo);
+    o.first_round = placesThePose(o, opt) && whitenedChi2(mono, stereo, o, x_predicted, opt.out_of_plane, &e2) &&
+                    e2 <= chi2Gate(o.stereo);
     agree += o.first_round && counted[k];
   }
   if (agree < min_agree) return false;
