@@ -16,6 +16,9 @@
 // peak memory, ATE with --gt) and a PNG (trajectory against ground truth, error over time).
 //
 // Ablations: --mode wheel|vo|vw, --kernel huber|fixed:<alpha>|adaptive, --no-semantics.
+// Pace: as fast as it goes (default); --realtime <x> feeds each record no sooner than the robot
+// lived it, sped up x times, so that local mapping and segmentation have the slack they would have
+// on the robot (at full speed tracking outruns them); --deterministic runs everything inline.
 // In a build given ORB_SLAM3_ROOT (a patched ORB-SLAM3 v1.0, patches/orbslam3/), --backend orbslam3
 // replays the same rawlog through ORB-SLAM3 instead: --mode vw hands it the wheel readings, --mode vo
 // does not (upstream's behaviour), for side-by-side runs; with the wheels its keyframes go to the
@@ -466,6 +469,11 @@ int main(int argc, char** argv) {
         false, "auto", "rawlog|onnx:FILE|none", cmd);
     TCLAP::SwitchArg deterministic("", "deterministic",
                                    "one thread, mapping and segmentation inline: same input, same output", cmd);
+    TCLAP::ValueArg<double> realtime_arg(
+        "", "realtime",
+        "feed the records at the pace they were recorded, x times faster (1: as on the robot); without it, as fast "
+        "as tracking goes, which leaves local mapping and segmentation (threads of their own) behind it",
+        false, 0, "x", cmd);
     TCLAP::ValueArg<std::string> plot_arg("", "plot", "PNG to write (default: the --out file with .png)", false, "",
                                           "file.png", cmd);
     TCLAP::ValueArg<std::string> align_arg("", "align", "ATE alignment: se3 (default), sim3, posyaw, none", false,
@@ -515,6 +523,13 @@ int main(int argc, char** argv) {
     }
     opt.semantics = !no_semantics.getValue();
     opt.deterministic = deterministic.getValue();
+    const double realtime = realtime_arg.getValue();
+    if (realtime_arg.isSet() && !(realtime > 0 && std::isfinite(realtime)))
+      throw std::invalid_argument("--realtime must be a speed-up above 0 (1: as recorded)");
+    if (realtime_arg.isSet() && opt.deterministic)
+      throw std::invalid_argument(
+          "--realtime paces the threads; --deterministic has none (its output does not "
+          "depend on time): give one of the two");
     opt = rvwo::estimator::readEstimatorOptions(settings, opt);
     const double ticks_per_rev = settings.number("Odometry.TicksPerRevolution").value_or(0);
     const std::string odometry_input =
@@ -623,6 +638,24 @@ int main(int argc, char** argv) {
       }
       held.reset();
     };
+    // --realtime: a record of time t goes in no sooner than (t - t_ref) / x after t_ref's. A time
+    // that is not after the last paced one (a bad record, skipped further on) does not move the
+    // pace, and a gap of over kMaxGap (a recording paused, or a corrupt time) is not waited for.
+    constexpr double kMaxGap = 1.0;  // s of data
+    double pace_ref = NAN, pace_last = NAN;
+    auto pace_wall = t_start;
+    auto pace = [&](double t) {
+      if (!(realtime > 0) || !std::isfinite(t)) return;
+      if (std::isnan(pace_ref) || t - pace_last > kMaxGap) {
+        pace_ref = pace_last = t;
+        pace_wall = std::chrono::steady_clock::now();
+        return;
+      }
+      if (!(t > pace_last)) return;
+      pace_last = t;
+      std::this_thread::sleep_until(pace_wall + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                    std::chrono::duration<double>((t - pace_ref) / realtime)));
+    };
     while (auto e = reader.next()) {
       if (auto* l = std::get_if<Labels>(&*e)) {
         if (rawlog_labels) rawlog_labels->add(l->t, l->image);
@@ -631,11 +664,13 @@ int main(int argc, char** argv) {
       }
       flush();
       if (auto* f = std::get_if<FrameInput>(&*e)) {
+        pace(f->timestamp);
         if (std::isnan(first_t)) first_t = f->timestamp;
         last_t = f->timestamp;
         held = std::move(*f);
       } else if (auto* o = std::get_if<Odometry>(&*e)) {
         ++odometry_count;
+        pace(o->t);
         if (opt.mode == rvwo::estimator::Mode::kVo) continue;
         try {
           if (odometry_input == "encoders") {

@@ -11,6 +11,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "../common/temp.h"
 #include "support/rawlog.h"
@@ -426,6 +429,36 @@ TEST(Replay, MonoSlipCaughtByVisionAlonesTrack) {
   // Measured: 23 slip frames, 0.419 % of the path, largest step 9.7 cm (vision taking over, 0.43 s in).
   EXPECT_GE(std::stoi(vw.out.substr(at + 10)), 20) << vw.out;
   EXPECT_LE(vw.ate, 0.005 * vw.path) << vw.out;
+  fs::remove_all(dir);
+}
+
+// --realtime x feeds the records no sooner than the robot lived them, sped up x times: the report's
+// speed stays at or below x (sleeping guarantees a lower bound on the time, on any machine), the
+// trajectory is whole. A pace that is not a speed-up, or one asked of the single-thread mode
+// (whose output does not depend on time), is refused in one line.
+TEST(Replay, RealtimePacesTheRecordsAndRefusesWhatMeansNothing) {
+  const fs::path dir = simulate("static", 3);
+  const std::string base = std::string(RVWO_REPLAY) + " --quiet --settings " + (dir / "settings.yaml").string() +
+                           " --rawlog " + (dir / "sequence.rawlog").string() + " --out " + (dir / "rt.txt").string();
+  ASSERT_EQ(std::system((base + " --realtime 1.5 > " + (dir / "rt.stdout").string()).c_str()), 0);
+  const std::string report = slurp(dir / "rt.stdout");
+  double data = 0, wall = 0, x = 0;
+  const std::size_t at = report.find("speed: ");
+  ASSERT_NE(at, std::string::npos) << report;
+  ASSERT_EQ(std::sscanf(report.c_str() + at, "speed: %lf s of data in %lf s: %lfx real time", &data, &wall, &x), 3)
+      << report;
+  EXPECT_GT(data, 2.9);
+  EXPECT_GE(wall, data / 1.5 - 0.05) << report;  // the first record's wait is none: a frame's period of slack
+  EXPECT_EQ(lines(dir / "rt.txt"), lines(dir / "groundtruth.txt"));
+  for (const auto& [args, line] : std::vector<std::pair<std::string, std::string>>{
+           {"--realtime 0", "rvwo-replay: error: --realtime must be a speed-up above 0 (1: as recorded)\n"},
+           {"--realtime -2", "rvwo-replay: error: --realtime must be a speed-up above 0 (1: as recorded)\n"},
+           {"--realtime 1 --deterministic",
+            "rvwo-replay: error: --realtime paces the threads; --deterministic has none (its output does not depend "
+            "on time): give one of the two\n"}}) {
+    EXPECT_NE(std::system((base + " " + args + " 2> " + (dir / "e.txt").string()).c_str()), 0) << args;
+    EXPECT_EQ(slurp(dir / "e.txt"), line) << args;
+  }
   fs::remove_all(dir);
 }
 
