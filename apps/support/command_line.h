@@ -2,12 +2,16 @@
 //
 // The apps' command line. MRPT's TCLAP returns false from CmdLine::parse both after --help or
 // --version and after an error it has printed (upstream TCLAP exits instead): this tells the two
-// apart, so that --help exits 0 without running the program and a mistyped option exits 1.
+// apart, so that --help exits 0 without running the program and a mistyped option exits 1, with
+// one error line naming the option (TCLAP's own message is six lines and a usage block).
 #pragma once
 
 #include <mrpt/3rdparty/tclap/CmdLine.h>
 
+#include <cstdio>
+#include <filesystem>
 #include <optional>
+#include <string>
 
 namespace rvwo::apps {
 
@@ -17,7 +21,25 @@ inline std::optional<int> parseCommandLine(TCLAP::CmdLine& cmd, int argc, char**
     bool failed = false;
     void failure(TCLAP::CmdLineInterface& c, TCLAP::ArgException& e) override {
       failed = true;
-      TCLAP::StdOutput::failure(c, e);
+      // argId() is "Argument: (--x)" for a known option, "Argument: --x" for an unknown one, " "
+      // or "undefined" for none.
+      const std::string program = std::filesystem::path(c.getProgramName()).filename().string();
+      std::string id = e.argId(), what = e.error();
+      if (id.rfind("Argument: ", 0) == 0) {
+        id = id.substr(10);
+        if (id.size() > 2 && id.front() == '(' && id.back() == ')') id = id.substr(1, id.size() - 2);
+        id += ": ";
+      } else {
+        id.clear();
+      }
+      if (what == "Couldn't find match for argument") what = "no such option";
+      if (what.rfind("One or more required arguments missing", 0) == 0) {
+        what = "missing";
+        for (TCLAP::Arg* a : c.getArgList()) {
+          if (a->isRequired() && !a->isSet()) what += " --" + a->getName();
+        }
+      }
+      std::fprintf(stderr, "%s: error: %s%s (--help lists the options)\n", program.c_str(), id.c_str(), what.c_str());
     }
   };
   static Output output;  // (the command line keeps a pointer to it)
