@@ -448,6 +448,48 @@ TEST(WheelsAgainstVision, SpinIsTheRobotStandingWhileTheWheelsGoOn) {
   EXPECT_FALSE(slipIsSpin(d, SE2(0.0, 0.0, 0.06)));
 }
 
+// After a blind stretch, a relocalisation is believed only on the way the wheels claimed (part
+// of it, as a slip leaves the robot), within their tolerance and 3 cm / 0.03 rad: a quarter turn
+// of radius 1 m claimed, noise-free but for the 5 mm / 5 mrad floor (so 3.5 cm, 0.035 rad).
+TEST(WheelsAgainstVision, RelocalisedOnlyOnTheWayTheWheelsClaimed) {
+  const double r = 1.0, turn = M_PI / 2;
+  WheelDelta d;
+  d.dp << r * std::sin(turn), r * (1 - std::cos(turn));
+  d.dphi = turn;
+  for (const double s : {0.0, 0.2, 0.5, 0.77, 1.0}) {  // where a slip may have left it, heading and all
+    const double a = s * turn;
+    EXPECT_TRUE(onTheClaimedWay(d, SE2(r * std::sin(a), r * (1 - std::cos(a)), a))) << s;
+    // Off the arc (radially, at radius r + e) by more than 3.5 cm: no; by 3 cm, turned 0.03 rad: yes.
+    const auto beside = [&](double e, double heading) {
+      return SE2((r + e) * std::sin(a), r - (r + e) * std::cos(a), heading);
+    };
+    EXPECT_FALSE(onTheClaimedWay(d, beside(0.04, a))) << s;
+    EXPECT_FALSE(onTheClaimedWay(d, beside(-0.04, a))) << s;
+    EXPECT_TRUE(onTheClaimedWay(d, beside(0.03, a - 0.03))) << s;
+    EXPECT_TRUE(onTheClaimedWay(d, beside(-0.03, a + 0.03))) << s;
+    // Turned off the claim's heading there by more than the slack and what 3.5 cm along the arc
+    // turns (0.035 rad at 1 m): no.
+    EXPECT_FALSE(onTheClaimedWay(d, beside(0.0, a + 0.08))) << s;
+    EXPECT_FALSE(onTheClaimedWay(d, beside(0.0, a - 0.08))) << s;
+  }
+  // The chord's midpoint is 29 cm inside the arc (its sagitta): a straight-line bound would take it.
+  EXPECT_FALSE(onTheClaimedWay(d, SE2(0.5 * d.dp.x(), 0.5 * d.dp.y(), turn / 2)));
+  // Farther than claimed, or the other way round: no slip leaves it there.
+  EXPECT_FALSE(onTheClaimedWay(d, SE2(r * std::sin(1.2 * turn), r * (1 - std::cos(1.2 * turn)), 1.2 * turn)));
+  EXPECT_FALSE(onTheClaimedWay(d, SE2(r * std::sin(-0.2 * turn), r * (1 - std::cos(-0.2 * turn)), -0.2 * turn)));
+  // The wheels' own noise widens it: 2 cm of sigma on each axis adds 3 x 2.8 cm.
+  d.covariance = Eigen::Vector3d(4e-4, 4e-4, 1e-6).asDiagonal();
+  EXPECT_TRUE(onTheClaimedWay(d, SE2(r * std::sin(turn), r * (1 - std::cos(turn)) + 0.11, turn)));
+  EXPECT_FALSE(onTheClaimedWay(d, SE2(r * std::sin(turn), r * (1 - std::cos(turn)) + 0.13, turn)));
+  // A spin on the spot (the turn claimed, nothing seen): s = 0.
+  WheelDelta spin;
+  spin.dphi = 1.0;
+  EXPECT_TRUE(onTheClaimedWay(spin, SE2(0.0, 0.0, 0.0)));
+  EXPECT_TRUE(onTheClaimedWay(spin, SE2(0.0, 0.0, 0.6)));
+  EXPECT_FALSE(onTheClaimedWay(spin, SE2(0.0, 0.0, -0.1)));
+  EXPECT_FALSE(onTheClaimedWay(spin, SE2(0.05, 0.0, 0.3)));
+}
+
 // Mono's stall test: the claim's dominant part (travel against 3 cm, turn against 0.05 rad), less
 // than half of it seen by vision alone, and not more than 0.3 of it backwards.
 TEST(WheelsAgainstVision, StallIsLessThanHalfTheClaimSeenOverAStretch) {

@@ -169,6 +169,19 @@ bool missBeyondTheClaim(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   return miss > wheels.dp.norm() + WheelTolerance(wheels).translation + skidReach(wheels);
 }
 
+bool onTheClaimedWay(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
+  constexpr int kSteps = 200;  // along the way: 0.5 % of it (a metre's claim: 5 mm)
+  const WheelTolerance tol(wheels);
+  const Eigen::Vector3d xi = wheels.pose().log();
+  for (int i = 0; i <= kSteps; ++i) {
+    const SE2 at = SE2::exp((static_cast<double>(i) / kSteps) * xi);
+    if ((at.translation() - T_b0_b1_vision.translation()).norm() <= tol.translation + kClaimedWaySlack &&
+        std::fabs(wrapAngle(at.angle() - T_b0_b1_vision.angle())) <= tol.rotation + kClaimedWaySlack)
+      return true;
+  }
+  return false;
+}
+
 bool slipIsSpin(const WheelDelta& wheels, const SE2& T_b0_b1_vision) {
   return T_b0_b1_vision.translation().norm() <= kSpinSeen * wheels.dp.norm() + kSpinSlack &&
          std::fabs(T_b0_b1_vision.angle()) <= kSpinSeen * std::fabs(wheels.dphi) + kSpinSlack;
