@@ -661,7 +661,7 @@ struct Estimator::Impl {
     std::vector<double> errors;
     int inliers = 0;
     int vision_alone_placed = -1;  // trusted inliers of vision alone, when the slip check solved it
-    bool wheels_strained = false;  // the wheel edge from the last frame strained by vision
+    bool strained = false;         // vision strains the wheel edge from the last frame
     const bool was_slipping = slipping;
     slipping = false;  // until this frame says otherwise (a frame without matches ends a slip)
     // Vision counts only landmarks no label has called dynamic (in the slip test and for a visual
@@ -688,8 +688,7 @@ struct Estimator::Impl {
       // started where the robot was, explains clearly more landmarks: it wins and the wheel edge
       // is dropped for this frame. Among walkers the wheels side with the static landmarks and
       // keep the pose.
-      const bool strained = prior && wheelEdgeStrained(*prior, last_pose.vector(), x);
-      wheels_strained = strained;
+      strained = prior && wheelEdgeStrained(*prior, last_pose.vector(), x);
       // Mono solves vision alone every frame: its own track shows wheels that stall (wheelsStall),
       // which mono's counts of one frame cannot.
       Eigen::Vector3d x_vision = last_pose.vector();
@@ -814,15 +813,15 @@ struct Estimator::Impl {
         // 3, 61 s: 17-34 a frame placed the robot, standing in a slip, to within a centimetre
         // frame after frame). That scenario's frames on the wheels alone: 1476 -> 772.
         const int placed = countTrusted(inlier);
+        int run = 0;  // trusted inliers summed over the agreeing relocalisations ending here
         if (placed >= opt.min_inliers) {
           const bool agrees =
               relocalised_run.placed > 0 && relocalised_run.t == last_t && delta &&
               onTheClaimedWay(*delta, SE2::fromVector(relocalised_run.x).inverse() * SE2::fromVector(x));
-          relocalised_run = {t, x, (agrees ? relocalised_run.placed : 0) + placed};
+          run = (agrees ? relocalised_run.placed : 0) + placed;
+          relocalised_run = {t, x, run};
         }
-        const bool enough = placed >= 3 * opt.min_inliers ||
-                            (placed >= opt.min_inliers && relocalised_run.t == t && relocalised_run.placed > placed &&
-                             relocalised_run.placed >= 4 * opt.min_inliers);
+        const bool enough = placed >= 3 * opt.min_inliers || (run > placed && run >= 4 * opt.min_inliers);
         visual = enough && (placed >= 10 * opt.min_inliers || onTheWheelsWay(x, t));
         if (visual) ++counters.relocalisations;
       }
@@ -888,7 +887,7 @@ struct Estimator::Impl {
       // there was none; 1.415 -> 0.158 % of the path, deterministic).
       make_kf = frames_since_kf >= opt.keyframe_max_frames ||
                 (frames_since_kf >= 2 && inliers < opt.keyframe_ratio * ref_kf.tracked) ||
-                (!slipping && !wheels_strained && close_tracked < 100 && close_untracked > 70);
+                (!slipping && !strained && close_tracked < 100 && close_untracked > 70);
     } else {
       // Vision lost: once there is texture again, a keyframe at the wheels' pose starts the map
       // anew from there (no jump); wheel edges tie it to the keyframes before.
