@@ -667,6 +667,7 @@ struct Estimator::Impl {
     // Vision counts only landmarks no label has called dynamic (in the slip test and for a visual
     // frame): a walker close in front fills the view with its own landmarks.
     std::vector<char> trusted = trustedOf(matches);
+    const int candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
     auto countTrusted = [&](const std::vector<char>& in) {
       int n = 0;
       for (std::size_t k = 0; k < in.size(); ++k) n += in[k] && trusted[k];
@@ -735,7 +736,7 @@ struct Estimator::Impl {
         e.fused_inliers = countTrusted(inlier);
         e.vision_inliers = countTrusted(inlier_v);
         vision_alone_placed = e.vision_inliers;
-        e.candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
+        e.candidates = candidates;
         e.strained = strained;
         e.stalled = stalled;
         e.was_slipping = was_slipping;
@@ -788,6 +789,10 @@ struct Estimator::Impl {
     timings.add("pose", msSince(t3));
     // (Trusted inliers only: following a walker's landmarks is following the walker.)
     bool visual = countTrusted(inlier) >= to_place;
+    // Do this frame's own trusted landmarks say the wheels are wrong? Judged here, on the match
+    // set the slip check counted, before a relocalisation replaces it (see the blind keyframe).
+    const bool contradicts_wheels = candidates >= opt.min_inliers / 2 && countTrusted(inlier) < 0.6 * candidates &&
+                                    vision_alone_placed >= 0.6 * candidates;
     // Still blind after a stretch on the wheels: their prediction may be too far off for the
     // projection search; the map in memory may still be in view.
     if (!visual && !last_visual) {
@@ -910,11 +915,7 @@ struct Estimator::Impl {
         // frame, or for Estimator.SlipHold after the last such frame: as the wheels run away from
         // the map its landmarks leave the projection search, which then contradicts nothing, and
         // relocalisation is left to find the map again.
-        const int candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
-        if (candidates >= opt.min_inliers / 2 && countTrusted(inlier) < 0.6 * candidates &&
-            vision_alone_placed >= 0.6 * candidates) {
-          wheels_doubted_t = t;
-        }
+        if (contradicts_wheels) wheels_doubted_t = t;
         const bool doubted = t - wheels_doubted_t <= opt.slip_hold;
         make_kf = frames_since_kf >= 3 && with_depth >= 4 * opt.min_inliers && !after_slip && !doubted;
       }
