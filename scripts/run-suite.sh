@@ -44,6 +44,11 @@ for n in "${names[@]}"; do
     mode=${run%%:*} kernel=${run#*:} extra=()
     [ "$mode" = wheel ] && kernel=huber
     name="$mode-$kernel"
+    # Mono takes its scale from the wheels: there is no vision-only run to make.
+    if [ "$mode" = vo ] && [ -z "$voc" ] && grep -Eqs '^Sensor: *"?mono' "$seq/settings.yaml"; then
+      printf '%-12s %-16s %10s %8s %10s %8s %7s %s\n' "$n" "$name" - - - - - "(mono: no scale without the wheels)"
+      continue
+    fi
     if [ -n "$voc" ]; then
       mode=${mode#orbslam3-} name=orbslam3-$mode-$kernel extra=(--backend orbslam3 --vocabulary "$voc")
     fi
