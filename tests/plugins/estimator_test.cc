@@ -210,6 +210,11 @@ TEST(Options, FromSettings) {
   EXPECT_DOUBLE_EQ(o.trusted_max_ps, 0.2);
   EXPECT_EQ(o.slip_hold_min_frames, 3);  // the default where the file is silent
   EXPECT_TRUE(o.wheel_gate);             // on by default
+  EXPECT_DOUBLE_EQ(o.mono_max_mapping_lag, 0.25);
+  EXPECT_DOUBLE_EQ(readEstimatorOptions(rvwo::Settings::fromString(
+                                            std::string(kSettings) + "Estimator.MonoMaxMappingLag: 0\n", "s.yaml"))
+                       .mono_max_mapping_lag,
+                   0.0);
   EXPECT_FALSE(
       readEstimatorOptions(rvwo::Settings::fromString(std::string(kSettings) + "Estimator.WheelGate: 0\n", "s.yaml"))
           .wheel_gate);
@@ -246,6 +251,8 @@ TEST(Options, ErrorsNameTheKey) {
   EXPECT_NE(message(y + "Estimator.SlipHoldMinFrames: 0\n").find("Estimator.SlipHoldMinFrames"), std::string::npos);
   EXPECT_NE(message(y + "Estimator.SlipMinInliers: 0.5\n").find("Estimator.SlipMinInliers"), std::string::npos);
   EXPECT_NE(message(with("TrustedMaxPs: 0.2", "TrustedMaxPs: 0")).find("Estimator.TrustedMaxPs"), std::string::npos);
+  EXPECT_NE(message(y + "Estimator.MonoMaxMappingLag: -0.1\n").find("Estimator.MonoMaxMappingLag: >= 0"),
+            std::string::npos);
 }
 
 // Fisheye stereo (ORB-SLAM3's KannalaBrandt8 pair, the right camera turned a little): the
@@ -383,6 +390,41 @@ TEST(Estimator, ThreadedTracksTowardsAWall) {
   EXPECT_NEAR(poses.back().T_w_b.translation().y(), 0.0, 0.01);
   EXPECT_GT(e.report().keyframes, 1u);
   EXPECT_GT(segmenter->calls.load(), 0);
+}
+
+// Threaded mono waits for local mapping (Estimator.MonoMaxMappingLag; 0 here: it never tracks
+// past an unmapped keyframe's next frame), and the report's timings show the waits; stereo never
+// waits, whatever the setting. Either way the drive is measured.
+TEST(Estimator, ThreadedMonoWaitsForLocalMapping) {
+  auto waits = [](const rvwo::estimator::Report& r) {
+    for (const auto& [stage, stats] : r.timings) {
+      if (stage == "wait for mapping") return stats.count;
+    }
+    return std::size_t{0};
+  };
+  for (const bool mono : {true, false}) {
+    SCOPED_TRACE(mono ? "mono" : "stereo");
+    std::string yaml = kSettings;
+    if (mono) yaml.replace(yaml.find("Sensor: \"stereo\""), 16, "Sensor: \"mono\"");
+    const rvwo::Settings s = rvwo::Settings::fromString(yaml, "s.yaml");
+    const Rig rig = readRig(s);
+    EstimatorOptions o = readEstimatorOptions(s);
+    o.deterministic = false;
+    o.mono_max_mapping_lag = 0;
+    Estimator e(rig, o, nullptr);
+    const double driven = driveTowardsAWall(e, rig, 60);
+    e.finish();
+    const auto poses = e.trajectory();
+    ASSERT_EQ(poses.size(), 60u);
+    EXPECT_NEAR(poses.back().T_w_b.translation().x(), driven, mono ? 0.03 : 0.01);
+    const rvwo::estimator::Report r = e.report();
+    EXPECT_GT(r.keyframes, 1u);
+    if (mono) {
+      EXPECT_GE(waits(r), 1u);
+    } else {
+      EXPECT_EQ(waits(r), 0u);
+    }
+  }
 }
 
 // A segmenter whose labels (background) come only once the test opens its gate, or that fails.

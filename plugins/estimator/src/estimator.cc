@@ -175,6 +175,7 @@ void EstimatorOptions::validate() const {
   if (!(keyframe_ratio > 0 && keyframe_ratio < 1)) fail("Estimator.KeyFrameRatio: in (0, 1)");
   if (window < 2) fail("Estimator.Window: >= 2");
   if (keep_keyframes < window + 1) fail("Estimator.KeepKeyFrames: > Estimator.Window");
+  if (!(mono_max_mapping_lag >= 0)) fail("Estimator.MonoMaxMappingLag: >= 0 s");
   if (!(sigma_px > 0)) fail("Estimator.SigmaPx: > 0");
   if (!(mono_min_baseline > 0)) fail("Estimator.MonoMinBaseline: > 0");
   if (!(mono_min_parallax > 0 && mono_min_parallax < 45)) fail("Estimator.MonoMinParallax: in (0, 45) degrees");
@@ -286,6 +287,7 @@ struct Estimator::Impl {
   // its window), so a flag is the whole queue.
   bool pending_keyframe = false;
   bool stop = false, busy = false;
+  double queued_kf_t = -1e300;  // the time of the keyframe queued last
 
   Impl(const Rig& r, const EstimatorOptions& o, std::shared_ptr<Segmenter> seg)
       : rig(r),
@@ -599,6 +601,7 @@ struct Estimator::Impl {
     // Labels that have come (threaded): applied now rather than at the next local BA, a keyframe
     // or more later, so that a walker's fresh landmarks stop counting as vision sooner.
     if (async) applyLabels(false);
+    waitForMappingLag(t);
     // ---- predict ----
     std::optional<WheelDelta> delta;
     SE2 predicted;
@@ -636,7 +639,7 @@ struct Estimator::Impl {
       record.ref_kf = next_kf - 1;
       record.visual = made > 0;
       lock.unlock();
-      queueKeyFrame();
+      queueKeyFrame(t);
       finishFrame(record, t);
       return;
     }
@@ -938,7 +941,7 @@ struct Estimator::Impl {
     record.visual = visual;
     record.slip = visual && slipping;
     lock.unlock();
-    if (make_kf) queueKeyFrame();
+    if (make_kf) queueKeyFrame(t);
     last_visual = visual;
     finishFrame(record, t);
   }
@@ -1151,7 +1154,7 @@ struct Estimator::Impl {
   }
 
   // ================= local mapping =================
-  void queueKeyFrame() {
+  void queueKeyFrame(double kf_t) {
     if (opt.deterministic) {
       mapKeyFrame();
       return;
@@ -1159,6 +1162,7 @@ struct Estimator::Impl {
     {
       std::lock_guard<std::mutex> lock(queue_mutex);
       pending_keyframe = true;
+      queued_kf_t = kf_t;
     }
     queue_cv.notify_one();
   }
@@ -1178,6 +1182,18 @@ struct Estimator::Impl {
         busy = false;
       }
       idle_cv.notify_all();
+    }
+  }
+
+  // Mono tracking no further ahead of local mapping than Estimator.MonoMaxMappingLag of data
+  // (threaded; options.h says why mono only).
+  void waitForMappingLag(double t) {
+    if (opt.deterministic || rig.sensor != Sensor::kMono) return;
+    std::unique_lock<std::mutex> lock(queue_mutex);
+    if ((pending_keyframe || busy) && t - queued_kf_t > opt.mono_max_mapping_lag) {
+      const auto t0 = Clock::now();
+      idle_cv.wait(lock, [&] { return !pending_keyframe && !busy; });
+      timings.add("wait for mapping", msSince(t0));  // the report's timings: how often, how long
     }
   }
 

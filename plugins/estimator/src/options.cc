@@ -131,6 +131,7 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Estimator.KeyFrameRatio", &o.keyframe_ratio);
   num("Estimator.Window", &o.window);
   num("Estimator.KeepKeyFrames", &o.keep_keyframes);
+  num("Estimator.MonoMaxMappingLag", &o.mono_max_mapping_lag);
   num("Estimator.SigmaPx", &o.sigma_px);
   num("Estimator.BarronScale", &o.barron_scale);
   num("Estimator.LabelDilation", &o.label_dilation_px);

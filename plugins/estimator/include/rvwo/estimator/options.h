@@ -131,6 +131,17 @@ struct EstimatorOptions {
   double keyframe_ratio = 0.75;  // or when fewer than this share of the reference keyframe's points are tracked
   int window = 8;                // keyframes optimised by local BA (Estimator.Window)
   int keep_keyframes = 14;       // keyframes kept in memory (window + fixed neighbours)
+  // Mono, threaded: tracking waits for local mapping once the keyframe it has not finished is
+  // this many seconds of data old (Estimator.MonoMaxMappingLag; 0: tracking never runs past an
+  // unmapped keyframe's next frame). On the robot local BA lags a few frames (81 ms mean, 0.2 s
+  // p95 at --realtime 1); a replay at full speed, tracking at 7x real time, ran a whole keyframe
+  // interval or more on triangulated points local BA had not refined, and in a turn they turned
+  // the pose (threaded mono lowtexture, 36-40 s: 11 runs 0.05-1.96 % of the path, six over 0.45 %;
+  // with 0.25 s, 8 runs 0.04-0.08 %, at 6.0-6.5x real time instead of 7.3x). Stereo and RGB-D
+  // points have measured depth; with the wait, threaded stereo static gave adaptive 0.0094 and
+  // Huber 0.0066 m (means of 5 runs) against 0.0078 and 0.0101 m without (4 runs): within the
+  // threaded spread, but the kernels' ratio the wrong way, so they do not wait.
+  double mono_max_mapping_lag = 0.25;
   // ---- noise
   double sigma_px = 1.0;  // keypoint noise at level 0, px
   OutOfPlaneNoise out_of_plane{0.01,
