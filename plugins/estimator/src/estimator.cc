@@ -791,10 +791,11 @@ struct Estimator::Impl {
     }
     timings.add("pose", msSince(t3));
     // (Trusted inliers only: following a walker's landmarks is following the walker.)
-    bool visual = countTrusted(inlier) >= to_place;
+    const int trusted_inliers = countTrusted(inlier);
+    bool visual = trusted_inliers >= to_place;
     // Do this frame's own trusted landmarks say the wheels are wrong? Judged here, on the match
     // set the slip check counted, before a relocalisation replaces it (see the blind keyframe).
-    const bool contradicts_wheels = candidates >= opt.min_inliers / 2 && countTrusted(inlier) < 0.6 * candidates &&
+    const bool contradicts_wheels = candidates >= opt.min_inliers / 2 && trusted_inliers < 0.6 * candidates &&
                                     vision_alone_placed >= 0.6 * candidates;
     // Still blind after a stretch on the wheels: their prediction may be too far off for the
     // projection search; the map in memory may still be in view.
