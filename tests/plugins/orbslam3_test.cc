@@ -130,10 +130,12 @@ TEST(WheelInput, KeyframesRestartTheMapWhileOnTheWheels) {
   ASSERT_EQ(w.wheelOnlyIntervals().size(), 1u);
   EXPECT_DOUBLE_EQ(w.wheelOnlyIntervals()[0].first, 0.3);
   EXPECT_DOUBLE_EQ(w.wheelOnlyIntervals()[0].second, 1.4);
-  // A frame that fails alone asks for nothing; a monocular keyframe makes no points: never.
+  // A frame that fails alone asks for nothing; a monocular map not in metres (no wheel scale):
+  // never, and no triangulation in time.
   w.frameTracked(2.0, false, 800);
   EXPECT_FALSE(w.keyFrameNeeded());
   EXPECT_EQ(w.wheelOnlyIntervals().size(), 2u);
+  EXPECT_FALSE(w.triangulatesInTime());  // stereo: its keyframes bring their points
   WheelInputParams mono;
   mono.map_from_depth = false;
   WheelInput m;
@@ -142,6 +144,7 @@ TEST(WheelInput, KeyframesRestartTheMapWhileOnTheWheels) {
     m.frameTracked(0.1 * k, false, 800);
     EXPECT_FALSE(m.keyFrameNeeded());
   }
+  EXPECT_FALSE(m.triangulatesInTime());
   WheelInput inactive;  // upstream's behaviour
   EXPECT_TRUE(inactive.keyFrameWanted(true));
   EXPECT_FALSE(inactive.keyFrameWanted(false));
@@ -875,6 +878,35 @@ TEST(WheelInputInit, TheWheelsGiveAMonocularMapItsMetres) {
   v.wheels.setSegmenter(std::make_shared<Background>());
   ASSERT_TRUE(v.wheels.optimisePose(f.problem, &solution));
   EXPECT_LT((v.x1.inverse() * robotOf(solution.T_c_w, v.T_b_c, &off_plane)).translation().norm(), 0.005);
+}
+
+// Frames the wheels carry (vision lost the map) become keyframes, as stereo ones do, once the
+// map is in metres: one each 0.15 m of the wheels, for the parallax new points need, which local
+// mapping triangulates against the keyframes before it in time (it shares no point yet).
+std::vector<int> monoKeyframesOnTheWheels(TwoViews& v) {
+  std::vector<int> asked;
+  for (int k = 0; k <= 20; ++k) {  // the wheels drive 0.40 m in the second
+    v.wheels.frameTracked(0.05 * k, k < 2, k == 18 ? 100 : 800);
+    if (v.wheels.keyFrameNeeded()) asked.push_back(k);
+  }
+  return asked;
+}
+
+TEST(WheelInputInit, AMonocularMapInMetresGrowsFromKeyframesOnTheWheels) {
+  TwoViews before;  // not in metres: a keyframe of its could not place its points
+  EXPECT_FALSE(before.wheels.triangulatesInTime());
+  EXPECT_TRUE(monoKeyframesOnTheWheels(before).empty());
+  TwoViews v;
+  ASSERT_NEAR(v.scale(cameraPose(v.x1, v.T_b_c), 1.0), 1.0, 1e-6);
+  EXPECT_TRUE(v.wheels.triangulatesInTime());
+  // On the wheels from 0.1 s: 0.15 m at 0.48 s (frame 10), then at 0.88 s, but frame 18 sees too little
+  // (100 features), and the next one goes.
+  EXPECT_EQ(monoKeyframesOnTheWheels(v), (std::vector<int>{10, 19}));
+  // A travel of nothing would make every frame a keyframe: refused.
+  WheelInputParams p;
+  p.mono_keyframe_travel = 0.0;
+  WheelInput bad;
+  EXPECT_THROW(bad.configure(p), std::invalid_argument);
 }
 
 TEST(WheelInputInit, AMapTheWheelsContradictIsRefused) {

@@ -49,6 +49,8 @@ struct WheelInput::Impl {
     noise.validate();
     if (!(p.calibration_period > 0)) throw std::invalid_argument("WheelInputParams: calibration_period must be > 0 s");
     if (p.spin_min_frames < 1) throw std::invalid_argument("WheelInputParams: spin_min_frames must be >= 1");
+    if (!(p.mono_keyframe_travel > 0))
+      throw std::invalid_argument("WheelInputParams: mono_keyframe_travel must be > 0 m");
     out_of_plane.sigma_z = p.sigma_z;
     out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * p.sigma_rollpitch * p.sigma_rollpitch;
   }
@@ -66,7 +68,8 @@ struct WheelInput::Impl {
   std::size_t wheel_frames = 0;
   int run = 0;  // frames on the wheels in a row, this one included
   bool keyframe = false;
-  bool blind = false;  // the frame tracked last was on the wheels with fewer than min_features
+  double last_keyframe_t = 0.0;  // the last keyframe frameTracked asked for while on the wheels, or the run's start
+  bool blind = false;            // the frame tracked last was on the wheels with fewer than min_features
   // Mono: the map is in metres (monocularScale), the wheels' scale. Read by local mapping too.
   std::atomic<bool> metric{false};
   double monocularScale(double t0, double t1, const Eigen::Isometry3d& T_c0_w, const Eigen::Isometry3d& T_c1_w) const;
@@ -398,17 +401,28 @@ void WheelInput::frameTracked(double t, bool visual, int features) {
   ++m.wheel_frames;
   if (m.run++ == 0) {
     m.intervals.emplace_back(t, t);
+    m.last_keyframe_t = t;
   } else {
     m.intervals.back().second = t;
   }
   // A frame held on the wheels past a momentary failure, with features again: a keyframe now
-  // and then gives tracking new map points at the wheel pose (stereo and RGB-D only: a monocular
-  // keyframe alone makes none).
-  m.keyframe = m.params.map_from_depth && features >= m.params.min_features && m.run >= 2 &&
-               (m.run - 2) % m.params.keyframe_every == 0;
+  // and then gives tracking new map points at the wheel pose. Stereo and RGB-D from its depth,
+  // every keyframe_every frames; mono once its map is in metres, triangulated against the
+  // keyframes before it in time (triangulatesInTime), each mono_keyframe_travel of the wheels
+  // after the last for the parallax ORB-SLAM3 asks of a new point (1.15 deg).
+  const bool seeing = features >= m.params.min_features && m.run >= 2;
+  if (m.params.map_from_depth) {
+    m.keyframe = seeing && (m.run - 2) % m.params.keyframe_every == 0;
+  } else {
+    m.keyframe = seeing && m.metric && m.covers(m.last_keyframe_t, t) &&
+                 m.integrate(m.last_keyframe_t, t).distance >= m.params.mono_keyframe_travel;
+  }
+  if (m.keyframe) m.last_keyframe_t = t;
 }
 
 bool WheelInput::keyFrameNeeded() const { return impl_ && impl_->keyframe; }
+
+bool WheelInput::triangulatesInTime() const { return impl_ && !impl_->params.map_from_depth && impl_->metric; }
 
 bool WheelInput::keyFrameWanted(bool orbslam3_needs) const {
   if (!impl_) return orbslam3_needs;

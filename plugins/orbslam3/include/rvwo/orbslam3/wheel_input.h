@@ -63,10 +63,11 @@ struct WheelInputParams {
   Eigen::Isometry3d T_b_o = Eigen::Isometry3d::Identity();  // odometry frame in the body frame [Odometry.T_b_o]
   double radius_left = 0.1, radius_right = 0.1;             // m [Odometry.WheelRadiusLeft/Right]
   double track = 0.5;                                       // m [Odometry.Track]
-  bool map_from_depth = true;  // stereo or RGB-D: a keyframe alone makes map points [Sensor]
-  int min_features = 500;      // features a frame carried on the wheels needs for a keyframe
-                               // (ORB-SLAM3's own bar for starting a stereo map)
-  int keyframe_every = 5;      // frames between keyframes while on the wheels
+  bool map_from_depth = true;          // stereo or RGB-D: a keyframe alone makes map points [Sensor]
+  int min_features = 500;              // features a frame carried on the wheels needs for a keyframe
+                                       // (ORB-SLAM3's own bar for starting a stereo map)
+  int keyframe_every = 5;              // frames between keyframes while on the wheels (stereo, RGB-D)
+  double mono_keyframe_travel = 0.15;  // m the wheels travel between keyframes while on them (mono)
   // ---- pose optimisation on SE(2) (stereo and RGB-D; mono keeps ORB-SLAM3's own)
   bool planar = true;             // optimisePose answers [Tracking.Planar: 1 | 0]
   bool huber = false;             // Huber (ORB-SLAM3's kernel) instead of the adaptive Barron kernel
@@ -236,6 +237,10 @@ class WheelInput {
   // few features for map points; or keyFrameNeeded(). A keyframe that sees nothing has no parent
   // in the spanning tree, so no loop correction or global BA ever moves it, nor the frames on it.
   bool keyFrameWanted(bool orbslam3_needs) const;
+  // Whether local mapping triangulates a new keyframe's points against the keyframes before it in
+  // time too, as ORB-SLAM3 does with an IMU (mono in metres): a keyframe the wheels placed sees no
+  // map point yet, so it has no covisible keyframe to triangulate with.
+  bool triangulatesInTime() const;
   std::size_t wheelOnlyFrames() const;
 
   // The factor that puts a monocular two-view map in metres (its keyframes at t0 and t1, T_c1_w's
