@@ -909,6 +909,29 @@ TEST(WheelInputInit, AMonocularMapInMetresGrowsFromKeyframesOnTheWheels) {
   EXPECT_THROW(bad.configure(p), std::invalid_argument);
 }
 
+TEST(WheelInputInit, AMonocularRobotThatStoodAMinuteOnTheWheelsStillGrowsItsMap) {
+  TwoViews v;
+  ASSERT_NEAR(v.scale(cameraPose(v.x1, v.T_b_c), 1.0), 1.0, 1e-6);
+  // After the two views: 70 s standing at x1, then straight on at 0.4 m/s. The wheels keep a
+  // minute of readings, so the travel since the run began must not be asked of them.
+  std::vector<WheelReading> readings;
+  for (int k = 101; k <= 7300; ++k) {
+    const double t = 0.01 * k;
+    const rvwo::SE2 x = v.x1 * rvwo::SE2(std::max(0.0, 0.4 * (t - 71.0)), 0.0, 0.0);
+    readings.push_back(WheelReading::pose(t, x.translation().x(), x.translation().y(), x.angle()));
+  }
+  v.wheels.add(readings);
+  std::vector<int> asked;
+  for (int k = 0; k <= 1440; ++k) {  // frames at 20 Hz; on the wheels from frame 2 (0.1 s)
+    v.wheels.frameTracked(0.05 * k, k < 2, 800);
+    if (v.wheels.keyFrameNeeded()) asked.push_back(k);
+  }
+  // Each 0.15 m of the wheels: at frames 10 and 18 of the first second's drive, none standing,
+  // then driving on from 71 s with the 0.04 m after frame 18 counted, at 71.275 s (frame 1426)
+  // and 0.375 s later (frame 1434).
+  EXPECT_EQ(asked, (std::vector<int>{10, 18, 1426, 1434}));
+}
+
 TEST(WheelInputInit, AMapTheWheelsContradictIsRefused) {
   TwoViews v;
   const Eigen::Isometry3d T_c1_w = cameraPose(v.x1, v.T_b_c);

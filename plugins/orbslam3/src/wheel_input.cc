@@ -68,8 +68,10 @@ struct WheelInput::Impl {
   std::size_t wheel_frames = 0;
   int run = 0;  // frames on the wheels in a row, this one included
   bool keyframe = false;
-  double last_keyframe_t = 0.0;  // the last keyframe frameTracked asked for while on the wheels, or the run's start
-  bool blind = false;            // the frame tracked last was on the wheels with fewer than min_features
+  // m the wheels went since the last keyframe frameTracked asked for while on them, or since the
+  // run's start: summed frame by frame, so that it never reaches past the readings kept (a minute).
+  double travel = 0.0;
+  bool blind = false;  // the frame tracked last was on the wheels with fewer than min_features
   // Mono: the map is in metres (monocularScale), the wheels' scale. Read by local mapping too.
   std::atomic<bool> metric{false};
   double monocularScale(double t0, double t1, const Eigen::Isometry3d& T_c0_w, const Eigen::Isometry3d& T_c1_w) const;
@@ -401,8 +403,10 @@ void WheelInput::frameTracked(double t, bool visual, int features) {
   ++m.wheel_frames;
   if (m.run++ == 0) {
     m.intervals.emplace_back(t, t);
-    m.last_keyframe_t = t;
+    m.travel = 0.0;
   } else {
+    const double t_previous = m.intervals.back().second;
+    if (!m.params.map_from_depth && m.covers(t_previous, t)) m.travel += m.integrate(t_previous, t).distance;
     m.intervals.back().second = t;
   }
   // A frame held on the wheels past a momentary failure, with features again: a keyframe now
@@ -414,10 +418,9 @@ void WheelInput::frameTracked(double t, bool visual, int features) {
   if (m.params.map_from_depth) {
     m.keyframe = seeing && (m.run - 2) % m.params.keyframe_every == 0;
   } else {
-    m.keyframe = seeing && m.metric && m.covers(m.last_keyframe_t, t) &&
-                 m.integrate(m.last_keyframe_t, t).distance >= m.params.mono_keyframe_travel;
+    m.keyframe = seeing && m.metric && m.travel >= m.params.mono_keyframe_travel;
   }
-  if (m.keyframe) m.last_keyframe_t = t;
+  if (m.keyframe) m.travel = 0.0;
 }
 
 bool WheelInput::keyFrameNeeded() const { return impl_ && impl_->keyframe; }
