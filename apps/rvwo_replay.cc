@@ -400,11 +400,16 @@ class OrbSlam3Backend {
     rep->slip_frames = result.slip_frames;
     rep->segmented_keyframes = result.segmented_keyframes;
     rep->wheel_calibration = result.wheel_calibration;
+    local_maps_ = result.local_maps;
+    calibrated_local_maps_ = result.calibrated_local_maps;
     rep->timings = {{"TrackFrame", rvwo::estimator::TimingStats::of(track_ms_)}};
     return out;
   }
   // Frames ORB-SLAM3 did not track (lost, not initialised), and their stretches.
   std::size_t lostFrames() const { return lost_frames_; }
+  // Local maps the plugin solved on SE(2), and those that refined the wheels' calibration.
+  std::size_t localMaps() const { return local_maps_; }
+  std::size_t calibratedLocalMaps() const { return calibrated_local_maps_; }
   const std::vector<std::pair<double, double>>& lost() const { return lost_; }
   const std::vector<double>& frameTimes() const { return frame_t_; }
 
@@ -428,6 +433,7 @@ class OrbSlam3Backend {
   std::unique_ptr<rvwo::orbslam3::Runner> runner_;
   std::string scratch_;
   std::size_t lost_frames_ = 0;
+  std::size_t local_maps_ = 0, calibrated_local_maps_ = 0;
   double last_t_ = NAN;
   std::vector<std::pair<double, double>> lost_;
   std::vector<double> track_ms_;
@@ -805,6 +811,13 @@ int main(int argc, char** argv) {
       std::printf("  wheel calibration (estimated): distance x%.4f, turn x%.4f, curvature %+.4f rad/m\n", 1 + c.x(),
                   1 + c.y(), c.z());
     }
+#ifdef RVWO_WITH_ORBSLAM3
+    // ORB-SLAM3 skips a local map while keyframes wait; fed faster than real time, few are solved.
+    if (orbslam3 && opt.mode == rvwo::estimator::Mode::kVw)
+      std::printf("  local maps on SE(2): %zu, of which %zu refined the wheel calibration%s\n", orbslam3->localMaps(),
+                  orbslam3->calibratedLocalMaps(),
+                  realtime_arg.isSet() ? "" : " (frames fed as fast as tracking goes; --realtime 1: as recorded)");
+#endif
     if (skipped > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped);
     // CPU as well as wall time: the wall time depends on what else the machine runs, the CPU says
     // how much of it a second of data takes (on two cores, 2x real time needs at most 1 s of CPU a

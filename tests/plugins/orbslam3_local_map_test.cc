@@ -289,6 +289,9 @@ TEST(WheelInputLocalMap, LearnsTheWheelsCalibrationWhereTheyAgree) {
   scene.perturb(10);
   localMapsAgain(&scene, 40);
   EXPECT_LT(turnError(scene), 0.25 * before) << scene.wheels.calibration().transpose();
+  // Each of them solved, and each refined the calibration: they agree with the wheels once it is applied.
+  EXPECT_EQ(scene.wheels.localMapsSolved(), 40u);
+  EXPECT_EQ(scene.wheels.localMapsCalibrated(), 40u);
   // The poses stay where the drive was: vision holds them, the calibration absorbs the wheels'.
   for (int k = 4; k < Scene::kKeyFrames; ++k) {
     double off_plane = 1;
@@ -301,6 +304,15 @@ TEST(WheelInputLocalMap, LearnsTheWheelsCalibrationWhereTheyAgree) {
   fixed.perturb(10);
   localMapsAgain(&fixed, 15);
   EXPECT_EQ(fixed.wheels.calibration().norm(), 0.0);
+  EXPECT_EQ(fixed.wheels.localMapsSolved(), 15u);
+  EXPECT_EQ(fixed.wheels.localMapsCalibrated(), 0u);
+  // Wheels 50 % off in turn, far beyond what a step explains: solved, the calibration left alone.
+  Scene off(1, true, 0.5);
+  off.perturb(10);
+  localMapsAgain(&off, 3);
+  EXPECT_EQ(off.wheels.localMapsSolved(), 3u);
+  EXPECT_EQ(off.wheels.localMapsCalibrated(), 0u);
+  EXPECT_EQ(off.wheels.calibration().norm(), 0.0);
   EXPECT_NEAR(turnError(fixed), before, 1e-9);
 }
 
@@ -455,6 +467,7 @@ TEST(WheelInputLocalMap, StopFlagOrLocalMappingOffLeaveTheMapAlone) {
     EXPECT_EQ((scene.kfs[6]->pose.t - before.t).norm(), 0.0f);
     EXPECT_EQ((scene.mps[10]->P - P_before).norm(), 0.0f);
     EXPECT_EQ(scene.map.changes, 0);
+    EXPECT_EQ(scene.wheels.localMapsSolved(), 0u);
   }
 }
 

@@ -208,6 +208,8 @@ Runner::Result Runner::finish(const std::string& scratch) {
   r.wheel_only_intervals = w.wheelOnlyIntervals();
   r.slip_frames = w.slipFrames();
   r.wheel_calibration = w.calibration();
+  r.local_maps = w.localMapsSolved();
+  r.calibrated_local_maps = w.localMapsCalibrated();
   std::remove(frames.c_str());
   std::remove(keyframes.c_str());
   return r;

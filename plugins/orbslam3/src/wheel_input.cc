@@ -66,6 +66,7 @@ struct WheelInput::Impl {
   ceres_adapters::WheelCalibrationEstimate calibration;
   WheelDelta integrate(double t0, double t1) const { return odometry.integrate(t0, t1, calibration.c); }
   std::size_t wheel_frames = 0;
+  std::atomic<std::size_t> local_maps_solved{0}, local_maps_calibrated{0};  // local mapping's thread
   int run = 0;  // frames on the wheels in a row, this one included
   bool keyframe = false;
   // m the wheels went since the last keyframe frameTracked asked for while on them, or since the
@@ -618,6 +619,8 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
 }
 
 std::size_t WheelInput::slipFrames() const { return impl_ ? impl_->slip_frames : 0; }
+std::size_t WheelInput::localMapsSolved() const { return impl_ ? impl_->local_maps_solved.load() : 0; }
+std::size_t WheelInput::localMapsCalibrated() const { return impl_ ? impl_->local_maps_calibrated.load() : 0; }
 
 Eigen::Vector3d WheelInput::calibration() const {
   if (!impl_) return Eigen::Vector3d::Zero();
@@ -805,8 +808,10 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
       if (!(stop && *stop)) ceres::Solve(so, &problem, &summary);
       out->calibrated = !calibrating.empty() && agree && summary.IsSolutionUsable() && c.allFinite();
     }
+    ++m.local_maps_solved;
   }
   if (out->calibrated) {
+    ++m.local_maps_calibrated;
     std::lock_guard<std::mutex> lock(m.mutex);
     m.calibration.refined(c, newest_t);
   }

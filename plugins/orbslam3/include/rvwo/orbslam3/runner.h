@@ -82,6 +82,7 @@ class Runner {
     std::size_t slip_frames = 0;                                  // frames where vision overruled the wheels
     std::size_t segmented_keyframes = 0;                          // keyframes whose labels came
     Eigen::Vector3d wheel_calibration = Eigen::Vector3d::Zero();  // as the local maps refined it
+    std::size_t local_maps = 0, calibrated_local_maps = 0;        // solved on SE(2); of those, refining it
   };
   Result finish(const std::string& scratch);
 
