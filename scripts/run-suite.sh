@@ -12,7 +12,8 @@
 # default build, configured with ORB_SLAM3_ROOT; VOC its vocabulary), without the wheels (vo: as
 # upstream) and with them (vw: poses on SE(2)), under Huber and under the adaptive kernel. "wheels"
 # is the frames the wheels placed (vo: -), "poses" the frames ORB-SLAM3 kept a pose for (the ATE
-# is over those; the log names the frames it did not track).
+# is over those; the log names the frames it did not track). ORB-SLAM3 is fed at the pace the
+# sequence was recorded (rvwo-replay's default for it), so each of its runs takes the sequence's length.
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"

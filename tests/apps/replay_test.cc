@@ -449,8 +449,9 @@ TEST(Replay, MonoSlipCaughtByVisionAlonesTrack) {
 
 // --realtime x feeds the records no sooner than the robot lived them, sped up x times: the report's
 // speed stays at or below x (sleeping guarantees a lower bound on the time, on any machine), the
-// trajectory is whole. A pace that is not a speed-up, or one asked of the single-thread mode
-// (whose output does not depend on time), is refused in one line.
+// trajectory is whole; 0 feeds them as fast as they go (the default, said outright), which the
+// single-thread mode also takes. A pace below 0, or one asked of the single-thread mode (whose
+// output does not depend on time), is refused in one line.
 TEST(Replay, RealtimePacesTheRecordsAndRefusesWhatMeansNothing) {
   const fs::path dir = simulate("static", 3);
   const std::string base = std::string(RVWO_REPLAY) + " --quiet --settings " + (dir / "settings.yaml").string() +
@@ -465,9 +466,14 @@ TEST(Replay, RealtimePacesTheRecordsAndRefusesWhatMeansNothing) {
   EXPECT_GT(data, 2.9);
   EXPECT_GE(wall, data / 1.5 - 0.05) << report;  // the first record's wait is none: a frame's period of slack
   EXPECT_EQ(lines(dir / "rt.txt"), lines(dir / "groundtruth.txt"));
+  for (const char* flat_out : {"--realtime 0", "--realtime 0 --deterministic"}) {
+    fs::remove(dir / "rt.txt");
+    EXPECT_EQ(std::system((base + " " + flat_out + " > " + (dir / "rt0.stdout").string()).c_str()), 0) << flat_out;
+    EXPECT_EQ(lines(dir / "rt.txt"), lines(dir / "groundtruth.txt")) << flat_out;
+  }
   for (const auto& [args, line] : std::vector<std::pair<std::string, std::string>>{
-           {"--realtime 0", "rvwo-replay: error: --realtime must be a speed-up above 0 (1: as recorded)\n"},
-           {"--realtime -2", "rvwo-replay: error: --realtime must be a speed-up above 0 (1: as recorded)\n"},
+           {"--realtime -2",
+            "rvwo-replay: error: --realtime must be a speed-up above 0 (1: as recorded) or 0 (as fast as it goes)\n"},
            {"--realtime 1 --deterministic",
             "rvwo-replay: error: --realtime paces the threads; --deterministic has none (its output does not depend "
             "on time): give one of the two\n"}}) {
