@@ -296,7 +296,7 @@ extern "C" void orbslam3Aborted(int) {
 // --backend orbslam3: ORB-SLAM3 (patched) fed like the estimator, its report in the same terms.
 class OrbSlam3Backend {
  public:
-  // settings: the sequence's, whose Odometry.Noise*, Odometry.Calibrate, Reliability.*, Semantics.*,
+  // settings: the sequence's, whose Odometry.Noise*, Odometry.Calibrate*, Reliability.*, Semantics.*,
   // Tracking.SlipCheck, Initializer.*, LocalMapping.* and LoopClosing.* keys go on to ORB-SLAM3
   // (and Estimator.LabelDilation as Segmentation.LabelDilation). segmenter: the keyframes' (with
   // the wheels; none: reliabilities from reprojection errors alone).
@@ -342,7 +342,8 @@ class OrbSlam3Backend {
     if (const auto v = settings.number("LocalMapping.MaxWheelSpan")) w.max_wheel_span = *v;
     w.spin_min_frames = opt.slip_hold_min_frames;  // one key for both hosts: Estimator.SlipHoldMinFrames
     std::vector<std::pair<std::string, std::string>> more;
-    for (const char* prefix : {"Odometry.Noise", "Reliability.", "Semantics.", "LoopClosing.", "Initializer."}) {
+    for (const char* prefix : {"Odometry.Noise", "Odometry.CalibrateDistance", "Odometry.CalibrationConstant",
+                               "Reliability.", "Semantics.", "LoopClosing.", "Initializer."}) {
       for (const std::string& key : settings.keysWithPrefix(prefix)) {
         if (key == "Semantics.LabelSet") {  // the texts among them
           if (const auto t = settings.text(key)) more.emplace_back(key, "\"" + *t + "\"");

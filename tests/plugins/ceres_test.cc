@@ -359,5 +359,112 @@ TEST(CeresWheelCalibration, TheEstimateCarriesItsPriorAndClockFromBaToBa) {
   EXPECT_EQ(est.step(step, 0.5, 3.5), step);
 }
 
+// What a wheel edge says of the calibration: J_c^T J_c of its whitened residual, J_c by central
+// differences on WheelCalibratedCost.
+TEST(CeresWheelCalibration, AnEdgesInformationIsItsWhitenedJacobianSquared) {
+  const test::PlanarBA ba(false, 5);
+  for (int k = 0; k + 1 < 6; ++k) {
+    const WheelEdge edge(ba.wheel[k]);
+    const ceres_adapters::WheelCalibratedCost cost(edge);
+    const Eigen::Vector3d xi = ba.poses[k] + Eigen::Vector3d(0.02, -0.01, 0.03), xj = ba.poses[k + 1];
+    const Eigen::Vector3d c(0.01, -0.02, 0.05);
+    const auto r = [&](const Eigen::VectorXd& cc) {
+      const double* blocks[] = {xi.data(), xj.data(), cc.data()};
+      Eigen::Vector3d out;
+      cost.Evaluate(blocks, out.data(), nullptr);
+      return Eigen::VectorXd(out);
+    };
+    const Eigen::MatrixXd J = test::numericJacobian(r, c);
+    const Eigen::Matrix3d info = ceres_adapters::wheelCalibrationInformation(edge, xi, xj, c);
+    EXPECT_LT(test::relativeError(info, J.transpose() * J), 1e-6) << k;
+  }
+}
+
+// `windows` BAs on the calibration alone, each with fresh data (a window of its own wheel edges:
+// truth plus noise of data_sigma), carried by a WheelCalibrationEstimate as the hosts carry it.
+struct CalibrationRun {
+  ceres_adapters::WheelCalibrationEstimate est;
+  std::vector<Eigen::Vector3d> data;
+};
+CalibrationRun calibrationRun(bool counting, const Eigen::Vector3d& step, int windows, std::uint64_t seed) {
+  const Eigen::Vector3d sigma(0.05, 0.05, 0.2), truth(0.004, -0.0196, -0.049), data_sigma(0.003, 0.006, 0.02);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01;
+  CalibrationRun run;
+  run.est.counting = counting;
+  for (int w = 0; w < windows; ++w) {
+    const Eigen::Vector3d d = truth + data_sigma.cwiseProduct(Eigen::Vector3d(n01(rng), n01(rng), n01(rng)));
+    run.data.push_back(d);
+    const Eigen::Matrix3d data_info = data_sigma.array().square().inverse().matrix().asDiagonal();
+    Eigen::Vector3d c = run.est.c;
+    ceres::Problem problem;
+    problem.AddResidualBlock(
+        new ceres::NormalPrior(ceres::Matrix(data_sigma.cwiseInverse().asDiagonal()), ceres::Vector(d)), nullptr,
+        c.data());
+    const double t = 0.5 * (w + 1);  // a BA a period
+    const Eigen::Matrix3d prior = run.est.addPriors(&problem, c.data(), sigma, step, 0.5, t);
+    ceres::Solver::Options so;
+    so.logging_type = ceres::SILENT;
+    so.function_tolerance = so.gradient_tolerance = so.parameter_tolerance = 1e-16;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    EXPECT_TRUE(summary.IsSolutionUsable());
+    run.est.refined(c, t, prior + data_info);
+  }
+  return run;
+}
+
+// Counting, with no drift allowed (a step far below the data), the run of BAs is the batch least
+// squares of all windows and the nominal prior, in value and covariance: a recursive estimate.
+TEST(CeresWheelCalibration, CountingIsTheBatchLeastSquaresOfAllWindows) {
+  const Eigen::Vector3d sigma(0.05, 0.05, 0.2), data_sigma(0.003, 0.006, 0.02);
+  const CalibrationRun run = calibrationRun(true, Eigen::Vector3d::Constant(1e-9), 200, 3);
+  Eigen::Vector3d info = sigma.array().square().inverse(), weighted = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& d : run.data) {
+    info += data_sigma.array().square().inverse().matrix();
+    weighted += d.cwiseQuotient(data_sigma.cwiseProduct(data_sigma));
+  }
+  const Eigen::Vector3d batch = weighted.cwiseQuotient(info);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(run.est.c[i], batch[i], 1e-3 * data_sigma[i] / std::sqrt(200.0)) << i;
+    EXPECT_NEAR(run.est.covariance(i, i), 1.0 / info[i], 1e-6 / info[i]) << i;
+  }
+}
+
+// With a drift of `step` a period, the covariance a BA starts from is the last one's plus step^2:
+// a Kalman filter's prediction, then its update by the window's information.
+TEST(CeresWheelCalibration, CountingAddsTheDriftBeforeEachWindow) {
+  const Eigen::Vector3d step(0.001, 0.002, 0.004), data_sigma(0.003, 0.006, 0.02);
+  const CalibrationRun a = calibrationRun(true, step, 5, 4), b = calibrationRun(true, step, 6, 4);
+  const Eigen::Matrix3d predicted = a.est.covariance + Eigen::Matrix3d(step.cwiseProduct(step).asDiagonal());
+  const Eigen::Matrix3d updated =
+      (predicted.inverse() + Eigen::Matrix3d(data_sigma.array().square().inverse().matrix().asDiagonal())).inverse();
+  EXPECT_LT((b.est.covariance - updated).cwiseAbs().maxCoeff(), 1e-12 * updated.norm() + 1e-18);
+  // Without new data the covariance stops shrinking where drift and data balance (Riccati).
+  const CalibrationRun long_run = calibrationRun(true, step, 400, 4);
+  const double q = step.x() * step.x(), r = data_sigma.x() * data_sigma.x();
+  const double steady = (-q + std::sqrt(q * q + 4 * q * r)) / 2;  // P = ((P + q)^-1 + 1/r)^-1
+  EXPECT_NEAR(long_run.est.covariance(0, 0), steady, 1e-9 * r);
+}
+
+// Why the hosts count: over the same noisy windows, the estimate a walk hands on is about the last
+// window's; counting's converges on the truth as 1/sqrt(windows).
+TEST(CeresWheelCalibration, CountingConvergesWhereTheWalkFollowsTheLastWindow) {
+  const Eigen::Vector3d truth(0.004, -0.0196, -0.049), data_sigma(0.003, 0.006, 0.02);
+  const Eigen::Vector3d walk_step(0.003, 0.003, 0.005), drift(1e-5, 1e-5, 2e-5);
+  double counting_err = 0.0, walk_err = 0.0;
+  const int runs = 20, windows = 180;  // a 90 s run of the suite, 2 BAs a second
+  for (int k = 0; k < runs; ++k) {
+    const CalibrationRun c = calibrationRun(true, drift, windows, 100 + k);
+    const CalibrationRun w = calibrationRun(false, walk_step, windows, 100 + k);
+    counting_err += std::pow((c.est.c.x() - truth.x()) / data_sigma.x(), 2);
+    walk_err += std::pow((w.est.c.x() - truth.x()) / data_sigma.x(), 2);
+  }
+  counting_err = std::sqrt(counting_err / runs);  // in units of one window's sigma
+  walk_err = std::sqrt(walk_err / runs);
+  EXPECT_LT(counting_err, 3.0 / std::sqrt(windows)) << counting_err;
+  EXPECT_GT(walk_err, 0.4) << walk_err;  // a window's own noise, shrunk by the step's prior
+}
+
 }  // namespace
 }  // namespace rvwo

@@ -101,9 +101,10 @@ struct Scene {
   WheelInput wheels;
 
   // turn_error: the wheels claim every turn this much (relative) too large, as a wrong track does.
-  // step_scale: the calibration's step (its prior around the last estimate) times this.
+  // step_scale: the calibration's step (or drift) times this; constant: counted, with the drift
+  // (else a walk of the step).
   explicit Scene(unsigned seed, bool local_map = true, double turn_error = 0.0, bool calibrate = true,
-                 double step_scale = 1.0) {
+                 double step_scale = 1.0, bool constant = false, bool calibrate_distance = true) {
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> u(-1, 1), depth(1.5, 6.0), coin(0, 1);
     std::normal_distribution<double> g(0, 1);
@@ -112,6 +113,9 @@ struct Scene {
     p.local_map = local_map;
     p.calibrate = calibrate;
     p.calibration_step *= step_scale;
+    p.calibration_drift *= step_scale;
+    p.calibration_constant = constant;
+    p.calibrate_distance = calibrate_distance;
     wheels.configure(p);
     std::vector<WheelReading> readings;
     rvwo::SE2 x = drive(0);
@@ -274,10 +278,11 @@ void localMapsAgain(Scene* scene, int rounds) {
 }
 
 TEST(WheelInputLocalMap, LearnsTheWheelsCalibrationWhereTheyAgree) {
-  // Wheels claiming 4 % too much turn (0.5 rad over the drive: 20 mrad off). Each local map
-  // moves the calibration at most about a step (its prior around the last), a random walk in
-  // time: the same keyframes again have a tenth of it (ceres_adapters::wheelCalibrationStep).
-  // With the default step (0.003 in turn scale), 40 local maps at one time hardly move it...
+  // Wheels claiming 4 % too much turn (0.5 rad over the drive: 20 mrad off). As a walk (the
+  // default), each local map moves the calibration at most about a step (its prior around the
+  // last), a random walk in time: the same keyframes again have a tenth of it
+  // (wheelCalibrationStep). With the default step (0.003 in turn scale), 40 local maps at one
+  // time hardly move it...
   Scene once(1, true, 0.04);
   const double before = turnError(once);
   EXPECT_GT(before, 0.015);
@@ -285,10 +290,34 @@ TEST(WheelInputLocalMap, LearnsTheWheelsCalibrationWhereTheyAgree) {
   localMapsAgain(&once, 40);
   EXPECT_GT(turnError(once), 0.9 * before) << once.wheels.calibration().transpose();
   // ... and with ten times the step, each as far as a local map half a second after the last.
-  Scene scene(1, true, 0.04, true, 10.0);
+  Scene walk(1, true, 0.04, true, 10.0);
+  walk.perturb(10);
+  localMapsAgain(&walk, 40);
+  EXPECT_LT(turnError(walk), 0.25 * before) << walk.wheels.calibration().transpose();
+  // A constant, counted (Odometry.CalibrationConstant 1), has only the prior around zero in its
+  // first local map, and learns it there; the same keyframes again add nothing new.
+  Scene first(1, true, 0.04, true, 1.0, true);
+  first.perturb(10);
+  localMapsAgain(&first, 1);
+  EXPECT_LT(turnError(first), 0.25 * before) << first.wheels.calibration().transpose();
+  Scene scene(1, true, 0.04, true, 1.0, true);
   scene.perturb(10);
   localMapsAgain(&scene, 40);
   EXPECT_LT(turnError(scene), 0.25 * before) << scene.wheels.calibration().transpose();
+  // Odometry.CalibrateDistance 0 (mono's default): the distance scale stays nominal, the rest is learnt.
+  Scene held(1, true, 0.04, true, 10.0, false, false);
+  held.perturb(10);
+  localMapsAgain(&held, 40);
+  EXPECT_EQ(held.wheels.calibration().x(), 0.0);
+  EXPECT_LT(turnError(held), 0.25 * before) << held.wheels.calibration().transpose();
+  // Counted, the first local map has the prior around zero alone: what its bounds (3 sigma) cannot
+  // explain, three times the turn, is left alone.
+  Scene way_off(1, true, 2.0, true, 1.0, true);
+  way_off.perturb(10);
+  localMapsAgain(&way_off, 3);
+  EXPECT_EQ(way_off.wheels.localMapsSolved(), 3u);
+  EXPECT_EQ(way_off.wheels.localMapsCalibrated(), 0u);
+  EXPECT_EQ(way_off.wheels.calibration().norm(), 0.0);
   // Each of them solved, and each refined the calibration: they agree with the wheels once it is applied.
   EXPECT_EQ(scene.wheels.localMapsSolved(), 40u);
   EXPECT_EQ(scene.wheels.localMapsCalibrated(), 40u);

@@ -65,20 +65,81 @@ bool WheelCalibratedCost::Evaluate(double const* const* parameters, double* resi
   return true;
 }
 
-void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
-                               const Eigen::Vector3d& step, const Eigen::Vector3d& c_before, bool first) {
-  if (first)
-    problem->AddResidualBlock(new ceres::NormalPrior(ceres::Matrix(sigma.cwiseInverse().asDiagonal()),
-                                                     ceres::Vector(Eigen::Vector3d::Zero())),
-                              nullptr, c);
-  problem->AddResidualBlock(
-      new ceres::NormalPrior(ceres::Matrix(step.cwiseInverse().asDiagonal()), ceres::Vector(c_before)), nullptr, c);
+namespace {
+
+// A Gaussian prior on c[3] of the given mean and information (SPD).
+void addCalibrationPrior(ceres::Problem* problem, double* c, const Eigen::Vector3d& mean,
+                         const Eigen::Matrix3d& information) {
+  const Eigen::LLT<Eigen::Matrix3d> llt(information);
+  if (llt.info() != Eigen::Success) throw std::invalid_argument("wheel calibration prior: information not SPD");
+  // ||U (c - mean)||^2 = (c - mean)^T information (c - mean), U^T U = information.
+  problem->AddResidualBlock(new ceres::NormalPrior(ceres::Matrix(llt.matrixU()), ceres::Vector(mean)), nullptr, c);
+}
+
+// c within 3 sigma of zero: the nominal wheels' prior, once counted, stays a bound.
+void boundCalibration(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
+                      const Eigen::Vector3d& c_before) {
   for (int i = 0; i < 3; ++i) {
     // Ceres refuses a start outside the bounds: never tighter than c_before (this BA's start).
     const double bound = std::max(3.0 * sigma[i], std::fabs(c_before[i]));
     problem->SetParameterLowerBound(c, i, -bound);
     problem->SetParameterUpperBound(c, i, bound);
   }
+}
+
+Eigen::Matrix3d diagonalInformation(const Eigen::Vector3d& sigma) {
+  return sigma.array().square().inverse().matrix().asDiagonal();
+}
+
+}  // namespace
+
+void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
+                               const Eigen::Vector3d& step, const Eigen::Vector3d& c_before, bool first) {
+  if (first) addCalibrationPrior(problem, c, Eigen::Vector3d::Zero(), diagonalInformation(sigma));
+  addCalibrationPrior(problem, c, c_before, diagonalInformation(step));
+  boundCalibration(problem, c, sigma, c_before);
+}
+
+Eigen::Matrix3d wheelCalibrationInformation(const WheelEdge& edge, const Eigen::Vector3d& x_i,
+                                            const Eigen::Vector3d& x_j, const WheelCalibration& c) {
+  Eigen::Matrix3d J_c;
+  edge.residual(x_i, x_j, c, nullptr, nullptr, &J_c);
+  const Eigen::Matrix3d SJ = edge.sqrtInformation() * J_c;
+  return SJ.transpose() * SJ;
+}
+
+Eigen::Matrix3d WheelCalibrationEstimate::addPriors(ceres::Problem* problem, double* c_var,
+                                                    const Eigen::Vector3d& sigma,
+                                                    const Eigen::Vector3d& step_per_period, double period,
+                                                    double newest_t) const {
+  const Eigen::Vector3d s = step(step_per_period, period, newest_t);
+  if (!counting) {
+    addWheelCalibrationPriors(problem, c_var, sigma, s, c, !learnt);
+    return learnt ? diagonalInformation(s) : Eigen::Matrix3d(diagonalInformation(sigma) + diagonalInformation(s));
+  }
+  Eigen::Matrix3d information;
+  if (!learnt) {
+    information = diagonalInformation(sigma);
+    addCalibrationPrior(problem, c_var, Eigen::Vector3d::Zero(), information);
+  } else {
+    const Eigen::Matrix3d before = covariance + Eigen::Matrix3d(s.array().square().matrix().asDiagonal());
+    information = before.inverse();
+    addCalibrationPrior(problem, c_var, c, information);
+  }
+  boundCalibration(problem, c_var, sigma, c);
+  return information;
+}
+
+void WheelCalibrationEstimate::refined(const WheelCalibration& c_new, double newest_t,
+                                       const Eigen::Matrix3d& information) {
+  c = c_new;
+  learnt = true;
+  t = newest_t;
+  if (!counting) return;
+  const Eigen::LLT<Eigen::Matrix3d> llt(information);
+  if (llt.info() != Eigen::Success)
+    throw std::invalid_argument("WheelCalibrationEstimate::refined: counting needs an SPD information");
+  covariance = llt.solve(Eigen::Matrix3d::Identity());
 }
 
 Eigen::Vector3d wheelCalibrationStep(const Eigen::Vector3d& step, double period, double dt) {

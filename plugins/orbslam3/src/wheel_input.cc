@@ -49,6 +49,7 @@ struct WheelInput::Impl {
     noise.validate();
     if (!(p.calibration_period > 0)) throw std::invalid_argument("WheelInputParams: calibration_period must be > 0 s");
     if (p.spin_min_frames < 1) throw std::invalid_argument("WheelInputParams: spin_min_frames must be >= 1");
+    calibration.counting = p.calibration_constant;
     if (!(p.mono_keyframe_travel > 0))
       throw std::invalid_argument("WheelInputParams: mono_keyframe_travel must be > 0 m");
     out_of_plane.sigma_z = p.sigma_z;
@@ -311,6 +312,9 @@ void WheelInput::configure(const std::string& settings_path) {
   if (!(p.graph_sigma_xy > 0) || !(p.graph_sigma_yaw > 0))
     throw std::invalid_argument(settings_path + ": LoopClosing.SigmaXY and .SigmaYaw must be > 0");
   p.calibrate = s.number("Odometry.Calibrate").value_or(1.0) != 0.0;
+  p.calibration_constant = s.number("Odometry.CalibrationConstant").value_or(0.0) != 0.0;
+  // Mono: vision has no scale of its own (the map's is the wheels'), so it cannot tell the wheels'.
+  p.calibrate_distance = s.number("Odometry.CalibrateDistance").value_or(p.map_from_depth ? 1.0 : 0.0) != 0.0;
   if (!(p.max_wheel_span > 0)) throw std::invalid_argument(settings_path + ": LocalMapping.MaxWheelSpan must be > 0 s");
   const double dilation = s.number("Segmentation.LabelDilation").value_or(p.label_dilation_px);
   if (!(dilation >= 0 && dilation <= 100 && dilation == std::floor(dilation)))
@@ -726,6 +730,11 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   WheelCalibration c = cal.c;
   const WheelCalibration& c_before = cal.c;
   std::vector<ceres::ResidualBlockId> calibrating;
+  struct Counted {  // a calibrating wheel edge ending after the last local map that refined c
+    WheelEdge edge;
+    std::size_t a, b;
+  };
+  std::vector<Counted> fresh;
   // Across a spin the first half goes without the wheel edge, and the second has it (Huber) only
   // where the keyframes agree with it: there from the start, even under Huber, it dragged new
   // keyframes along the spinning wheels where vision sees little (forward, on far points), as in
@@ -750,6 +759,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
         // Quadratic: among walkers it is what holds the window to the static world.
         calibrating.push_back(problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(edge), nullptr,
                                                        x[sp.a].data(), x[sp.b].data(), c.data()));
+        if (!(pb.keyframes[sp.b].t <= cal.t)) fresh.push_back({edge, sp.a, sp.b});  // NaN t: none yet
       } else {
         problem.AddResidualBlock(new ceres_adapters::WheelCost(edge), nullptr, x[sp.a].data(), x[sp.b].data());
       }
@@ -757,9 +767,13 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
     } catch (const std::invalid_argument&) {  // degenerate covariance: no edge
     }
   }
+  Eigen::Matrix3d known = Eigen::Matrix3d::Zero();  // of c: the priors', then the fresh edges' added
   if (!calibrating.empty())
-    cal.addPriors(&problem, c.data(), m.params.calibration_sigma, m.params.calibration_step,
-                  m.params.calibration_period, newest_t);
+    known = cal.addPriors(&problem, c.data(), m.params.calibration_sigma,
+                          cal.counting ? m.params.calibration_drift : m.params.calibration_step,
+                          m.params.calibration_period, newest_t);
+  if (!calibrating.empty() && !m.params.calibrate_distance)
+    problem.SetManifold(c.data(), new ceres::SubsetManifold(3, {0}));  // the distance scale held
   bool held = false;
   for (std::size_t k = 0; k < nk; ++k) {
     if (!problem.HasParameterBlock(x[k].data())) continue;
@@ -812,8 +826,9 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   }
   if (out->calibrated) {
     ++m.local_maps_calibrated;
+    for (const Counted& f : fresh) known += ceres_adapters::wheelCalibrationInformation(f.edge, x[f.a], x[f.b], c);
     std::lock_guard<std::mutex> lock(m.mutex);
-    m.calibration.refined(c, newest_t);
+    m.calibration.refined(c, newest_t, known);
   }
 
   // Outliers as ORB-SLAM3 judges them: beyond the chi2 gate (eq. 10's covariance) or behind.

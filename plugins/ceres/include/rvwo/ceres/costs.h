@@ -85,32 +85,48 @@ void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::
 // below 0.01 a BA on the same keyframes as the last still has a tenth of it.
 Eigen::Vector3d wheelCalibrationStep(const Eigen::Vector3d& step, double period, double dt);
 
+// The information on the odometry's calibration c of one wheel edge between x_i and x_j, at c:
+// J_c^T J_c of its whitened residual (WheelCalibratedCost's third block). The poses are taken
+// as known: it is what the wheels say of c where vision has placed the keyframes.
+Eigen::Matrix3d wheelCalibrationInformation(const WheelEdge& edge, const Eigen::Vector3d& x_i,
+                                            const Eigen::Vector3d& x_j, const WheelCalibration& c);
+
 // The odometry's calibration as a run of BAs refines it, kept by the host between them (under
 // its own lock): the estimate, whether a BA has had it free yet (the prior around zero then
 // counted), and the newest keyframe's time in the last BA that had it free (the random walk's
 // clock). A BA copies it, starts its variable at c, adds addPriors, and calls refined() only if
 // c was free in the solve it keeps (a BA that held c fixed has learnt nothing of it).
+//
+// Two ways to carry c from BA to BA:
+//   - a walk (counting false): the prior around c is the step alone, so each BA moves c as far as
+//     its window says. Stereo's scale wanders by a few tenths of a percent from window to window,
+//     and c followed it: the wheels then held the map to vision's scale of the moment.
+//   - counting: c is a constant, known better as the wheels run on (a recursive least squares).
+//     The host passes refined() the information of the BA's priors (addPriors' return) plus that
+//     of the wheel edges it brought in (wheelCalibrationInformation of the edges ending after t);
+//     the prior around c is then the covariance so far plus the step, now the random walk of a
+//     slow drift (tyres wearing), and the first BA has the prior around zero alone.
 struct WheelCalibrationEstimate {
   WheelCalibration c = WheelCalibration::Zero();
-  bool learnt = false;  // a BA has had c free: the prior around zero has been counted
-  double t = NAN;       // s: the newest keyframe of the last BA that had c free (NaN: none yet)
+  bool learnt = false;    // a BA has had c free: the prior around zero has been counted
+  double t = NAN;         // s: the newest keyframe of the last BA that had c free (NaN: none yet)
+  bool counting = false;  // see above; set by the host before the first BA
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of c when counting, once learnt
 
   // The step of a BA whose newest keyframe is at newest_t (wheelCalibrationStep, period in s).
   Eigen::Vector3d step(const Eigen::Vector3d& step_per_period, double period, double newest_t) const {
     return wheelCalibrationStep(step_per_period, period, newest_t - t);
   }
-  // addWheelCalibrationPriors on the BA's variable c_var (started at c) for a BA whose newest
-  // keyframe is at newest_t: around c with step(), and around zero with sigma unless learnt.
-  void addPriors(ceres::Problem* problem, double* c_var, const Eigen::Vector3d& sigma,
-                 const Eigen::Vector3d& step_per_period, double period, double newest_t) const {
-    addWheelCalibrationPriors(problem, c_var, sigma, step(step_per_period, period, newest_t), c, !learnt);
-  }
-  // A BA whose newest keyframe is at newest_t had c free and found c_new.
-  void refined(const WheelCalibration& c_new, double newest_t) {
-    c = c_new;
-    learnt = true;
-    t = newest_t;
-  }
+  // The priors on the BA's variable c_var (started at c) for a BA whose newest keyframe is at
+  // newest_t: addWheelCalibrationPriors (around c with step(), around zero with sigma unless
+  // learnt), or when counting, around zero with sigma in the first BA and around c with
+  // covariance + step()^2 after it. Returns their information.
+  Eigen::Matrix3d addPriors(ceres::Problem* problem, double* c_var, const Eigen::Vector3d& sigma,
+                            const Eigen::Vector3d& step_per_period, double period, double newest_t) const;
+  // A BA whose newest keyframe is at newest_t had c free and found c_new; information: what it
+  // knew of c (counting: its priors' and its new wheel edges'; otherwise unused).
+  void refined(const WheelCalibration& c_new, double newest_t,
+               const Eigen::Matrix3d& information = Eigen::Matrix3d::Zero());
 };
 
 }  // namespace rvwo::ceres_adapters

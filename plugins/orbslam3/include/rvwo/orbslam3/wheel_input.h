@@ -88,7 +88,17 @@ struct WheelInputParams {
   Eigen::Vector3d calibration_step = Eigen::Vector3d(0.003, 0.003, 0.005);  // around the last, per local map
                                                                             // calibration_period after the last
                                                                             // (ceres_adapters::wheelCalibrationStep)
-  double calibration_period = 0.5;                                          // s
+  // When constant, its slow drift per calibration_period on top of what is known.
+  Eigen::Vector3d calibration_drift = Eigen::Vector3d(3e-4, 3e-4, 5e-4);
+  double calibration_period = 0.5;  // s
+  // c a constant the wheels learn better as they run (with calibration_drift), or a walk of
+  // calibration_step that follows each local map (WheelCalibrationEstimate::counting)
+  // [Odometry.CalibrationConstant: 1 | 0]
+  bool calibration_constant = false;
+  // The distance scale among what is refined; otherwise held at the settings' radii, as for mono,
+  // where it is unobservable (the map's scale is the wheels') [Odometry.CalibrateDistance: 1 | 0;
+  // mono 0]
+  bool calibrate_distance = true;
   double max_wheel_span = 5.0;  // s: the longest stretch between keyframes a wheel edge of the
                                 // local map spans (calibration errors grow beyond its covariance)
                                 // [LocalMapping.MaxWheelSpan]
