@@ -95,8 +95,13 @@ Eigen::Matrix3d diagonalInformation(const Eigen::Vector3d& sigma) {
 
 void addWheelCalibrationPriors(ceres::Problem* problem, double* c, const Eigen::Vector3d& sigma,
                                const Eigen::Vector3d& step, const Eigen::Vector3d& c_before, bool first) {
-  if (first) addCalibrationPrior(problem, c, Eigen::Vector3d::Zero(), diagonalInformation(sigma));
-  addCalibrationPrior(problem, c, c_before, diagonalInformation(step));
+  // 1/sigma itself (not the root of an information): the estimator's figures stay as they were.
+  if (first)
+    problem->AddResidualBlock(new ceres::NormalPrior(ceres::Matrix(sigma.cwiseInverse().asDiagonal()),
+                                                     ceres::Vector(Eigen::Vector3d::Zero())),
+                              nullptr, c);
+  problem->AddResidualBlock(
+      new ceres::NormalPrior(ceres::Matrix(step.cwiseInverse().asDiagonal()), ceres::Vector(c_before)), nullptr, c);
   boundCalibration(problem, c, sigma, c_before);
 }
 
