@@ -730,20 +730,17 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   WheelCalibration c = cal.c;
   const WheelCalibration& c_before = cal.c;
   std::vector<ceres::ResidualBlockId> calibrating;
-  struct Counted {  // a calibrating wheel edge ending after the last local map that refined c
+  struct EdgeBetween {  // a wheel edge between keyframes a and b
     WheelEdge edge;
     std::size_t a, b;
   };
-  std::vector<Counted> fresh;
+  // Counting: the calibrating edges ending after the last local map that refined c.
+  std::vector<EdgeBetween> fresh;
   // Across a spin the first half goes without the wheel edge, and the second has it (Huber) only
   // where the keyframes agree with it: there from the start, even under Huber, it dragged new
   // keyframes along the spinning wheels where vision sees little (forward, on far points), as in
   // the estimator's local BA (stereo combined seed 3: 0.85 % of the path, 0.10 % without).
-  struct HeldOut {
-    WheelEdge edge;
-    std::size_t a, b;
-  };
-  std::vector<HeldOut> spin_edges;
+  std::vector<EdgeBetween> spin_edges;
   for (const Impl::Span& sp : spans) {
     try {
       const WheelEdge edge(sp.delta);
@@ -759,7 +756,8 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
         // Quadratic: among walkers it is what holds the window to the static world.
         calibrating.push_back(problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(edge), nullptr,
                                                        x[sp.a].data(), x[sp.b].data(), c.data()));
-        if (!(pb.keyframes[sp.b].t <= cal.t)) fresh.push_back({edge, sp.a, sp.b});  // NaN t: none yet
+        if (cal.counting && !(pb.keyframes[sp.b].t <= cal.t))  // NaN t: none yet
+          fresh.push_back({edge, sp.a, sp.b});
       } else {
         problem.AddResidualBlock(new ceres_adapters::WheelCost(edge), nullptr, x[sp.a].data(), x[sp.b].data());
       }
@@ -826,7 +824,7 @@ bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* o
   }
   if (out->calibrated) {
     ++m.local_maps_calibrated;
-    for (const Counted& f : fresh) known += ceres_adapters::wheelCalibrationInformation(f.edge, x[f.a], x[f.b], c);
+    for (const EdgeBetween& f : fresh) known += ceres_adapters::wheelCalibrationInformation(f.edge, x[f.a], x[f.b], c);
     std::lock_guard<std::mutex> lock(m.mutex);
     m.calibration.refined(c, newest_t, known);
   }
