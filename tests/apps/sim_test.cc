@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/core/persistence.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "../common/temp.h"
@@ -251,6 +252,12 @@ TEST(Simulator, SameSeedSameBytes) {
     ++files;
   }
   EXPECT_GT(files, 60u);  // 31 frames x 3 images, rawlog, settings, ground truth, scenario
+  // The settings give the wheels' noise as simulated: the angle noise, and no skid (the robot
+  // never moves sideways: RealMotionIsOneWheelsCanDrive).
+  cv::FileStorage settings((dir / "a" / "settings.yaml").string(), cv::FileStorage::READ);
+  ASSERT_TRUE(settings["Odometry.NoiseY"].isReal() || settings["Odometry.NoiseY"].isInt());
+  EXPECT_EQ(static_cast<double>(settings["Odometry.NoiseY"]), 0.0);
+  EXPECT_EQ(static_cast<double>(settings["Odometry.NoiseWheel"]), 0.005);
   EXPECT_NE(slurp(dir / "a" / "sequence.rawlog"), slurp(dir / "c" / "sequence.rawlog"));
   EXPECT_NE(slurp(dir / "a" / "sequence_Images" / "L_000010.png"),
             slurp(dir / "c" / "sequence_Images" / "L_000010.png"));
