@@ -7,10 +7,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <opencv2/core/persistence.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "../common/temp.h"
+#include "rvwo/settings/settings.h"
 #include "sim/odometry.h"
 #include "sim/scenario.h"
 #include "sim/scene.h"
@@ -252,12 +252,13 @@ TEST(Simulator, SameSeedSameBytes) {
     ++files;
   }
   EXPECT_GT(files, 60u);  // 31 frames x 3 images, rawlog, settings, ground truth, scenario
-  // The settings give the wheels' noise as simulated: the angle noise, and no skid (the robot
-  // never moves sideways: RealMotionIsOneWheelsCanDrive).
-  cv::FileStorage settings((dir / "a" / "settings.yaml").string(), cv::FileStorage::READ);
-  ASSERT_TRUE(settings["Odometry.NoiseY"].isReal() || settings["Odometry.NoiseY"].isInt());
-  EXPECT_EQ(static_cast<double>(settings["Odometry.NoiseY"]), 0.0);
-  EXPECT_EQ(static_cast<double>(settings["Odometry.NoiseWheel"]), 0.005);
+  // The settings give the wheels' noise as simulated, read as the estimators read it: the angle
+  // noise, and no skid (the robot never moves sideways: RealMotionIsOneWheelsCanDrive; absent,
+  // the key would leave the default's 0.01 m/sqrt(m)).
+  const WheelNoise noise = readWheelNoise(Settings::load((dir / "a" / "settings.yaml").string()));
+  ASSERT_NE(WheelNoise().sigma_y, 0.0);
+  EXPECT_EQ(noise.sigma_y, 0.0);
+  EXPECT_EQ(noise.sigma_wheel, 0.005);
   EXPECT_NE(slurp(dir / "a" / "sequence.rawlog"), slurp(dir / "c" / "sequence.rawlog"));
   EXPECT_NE(slurp(dir / "a" / "sequence_Images" / "L_000010.png"),
             slurp(dir / "c" / "sequence_Images" / "L_000010.png"));
