@@ -297,9 +297,9 @@ extern "C" void orbslam3Aborted(int) {
 class OrbSlam3Backend {
  public:
   // settings: the sequence's, whose Odometry.Noise*, Odometry.Calibrate*, Reliability.*, Semantics.*,
-  // Tracking.SlipCheck, Initializer.*, LocalMapping.* and LoopClosing.* keys go on to ORB-SLAM3
-  // (and Estimator.LabelDilation as Segmentation.LabelDilation). segmenter: the keyframes' (with
-  // the wheels; none: reliabilities from reprojection errors alone).
+  // Tracking.SlipCheck, Initializer.*, LocalMapping.*, LoopClosing.* and ORBextractor.AlignedPyramid
+  // keys go on to ORB-SLAM3 (and Estimator.LabelDilation as Segmentation.LabelDilation).
+  // segmenter: the keyframes' (with the wheels; none: reliabilities from reprojection errors alone).
   OrbSlam3Backend(const rvwo::estimator::Rig& rig, const rvwo::estimator::EstimatorOptions& opt, bool wheels,
                   const rvwo::Settings& settings, const std::string& vocabulary, const std::string& out,
                   const std::shared_ptr<rvwo::Segmenter>& segmenter)
@@ -342,8 +342,9 @@ class OrbSlam3Backend {
     if (const auto v = settings.number("LocalMapping.MaxWheelSpan")) w.max_wheel_span = *v;
     w.spin_min_frames = opt.slip_hold_min_frames;  // one key for both hosts: Estimator.SlipHoldMinFrames
     std::vector<std::pair<std::string, std::string>> more;
-    for (const char* prefix : {"Odometry.Noise", "Odometry.CalibrateDistance", "Odometry.CalibrationConstant",
-                               "Reliability.", "Semantics.", "LoopClosing.", "Initializer."}) {
+    for (const char* prefix :
+         {"Odometry.Noise", "Odometry.CalibrateDistance", "Odometry.CalibrationConstant", "Reliability.", "Semantics.",
+          "LoopClosing.", "Initializer.", "ORBextractor.AlignedPyramid"}) {
       for (const std::string& key : settings.keysWithPrefix(prefix)) {
         if (key == "Semantics.LabelSet") {  // the texts among them
           if (const auto t = settings.text(key)) more.emplace_back(key, "\"" + *t + "\"");

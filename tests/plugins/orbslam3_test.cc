@@ -157,6 +157,7 @@ TEST(WheelInput, ReadsRvwoKeysFromTheSettings) {
   write("");  // upstream's settings: no RVWO keys, upstream behaviour
   w.configure(path.string());
   EXPECT_FALSE(w.active());
+  EXPECT_FALSE(w.alignedPyramid());  // upstream's pyramid
   write("Sensor: \"mono\"\nOdometry.Track: 0.4\n");
   try {
     w.configure(path.string());
@@ -210,6 +211,11 @@ TEST(WheelInput, ReadsRvwoKeysFromTheSettings) {
   write(stereo);
   w.configure(path.string());
   EXPECT_TRUE(w.optimisesEssentialGraphs());
+  EXPECT_TRUE(w.alignedPyramid());  // by default, with the wheels
+  write(stereo + "ORBextractor.AlignedPyramid: 0\n");
+  w.configure(path.string());
+  EXPECT_TRUE(w.active());
+  EXPECT_FALSE(w.alignedPyramid());
   write(stereo + "LoopClosing.Planar: 0\n");
   w.configure(path.string());
   EXPECT_TRUE(w.optimisesLocalMaps());

@@ -284,6 +284,7 @@ void WheelInput::configure(const std::string& settings_path) {
   p.track = d.track;
   const std::string sensor = s.text("Sensor").value_or("stereo");
   p.map_from_depth = sensor != "mono";
+  p.aligned_pyramid = s.number("ORBextractor.AlignedPyramid").value_or(1.0) != 0.0;
   p.planar = s.number("Tracking.Planar").value_or(1.0) != 0.0;
   const std::string kernel = s.text("Tracking.Kernel").value_or("adaptive");
   if (kernel != "adaptive" && kernel != "huber")
@@ -344,6 +345,8 @@ void WheelInput::configure(const std::string& settings_path) {
 }
 
 bool WheelInput::active() const { return impl_ != nullptr; }
+
+bool WheelInput::alignedPyramid() const { return impl_ && impl_->params.aligned_pyramid; }
 
 void WheelInput::add(const std::vector<WheelReading>& readings) {
   if (!impl_) {

@@ -68,6 +68,10 @@ struct WheelInputParams {
                                        // (ORB-SLAM3's own bar for starting a stereo map)
   int keyframe_every = 5;              // frames between keyframes while on the wheels (stereo, RGB-D)
   double mono_keyframe_travel = 0.15;  // m the wheels travel between keyframes while on them (mono)
+  bool aligned_pyramid = true;         // ORB-SLAM3's image pyramid resampled where its keypoints' coordinates
+                                       // put each level (rvwo/orbslam3/pyramid.h); upstream's misplaces
+                                       // coarse keypoints and shortened its stereo map 0.15 %, and the
+                                       // wheels' distance scale learnt that [ORBextractor.AlignedPyramid: 1 | 0]
   // ---- pose optimisation on SE(2) (stereo and RGB-D; mono keeps ORB-SLAM3's own)
   bool planar = true;             // optimisePose answers [Tracking.Planar: 1 | 0]
   bool huber = false;             // Huber (ORB-SLAM3's kernel) instead of the adaptive Barron kernel
@@ -229,6 +233,9 @@ class WheelInput {
   // std::invalid_argument naming the file and key of a bad or missing value.
   void configure(const std::string& settings_path);
   bool active() const;
+  // Whether ORB-SLAM3's extractors resample their pyramids with resamplePyramidLevel: active and
+  // WheelInputParams::aligned_pyramid. Inactive, ORB-SLAM3's pyramid stays upstream's.
+  bool alignedPyramid() const;
 
   // Readings since the previous frame, in time order. Throws std::invalid_argument on NaN, a
   // time going back, or a kind other than the stream's first.
