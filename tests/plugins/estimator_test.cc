@@ -52,6 +52,51 @@ TEST(Features, SpreadOverTheGridAndWithinBudget) {
   EXPECT_EQ(near.size(), brute);
 }
 
+// cv::ORB's pyramid as OpenCV 4 builds it (orb.cpp: each level resized from the one before with
+// INTER_LINEAR_EXACT to cvRound(W / 1.2^n)), on ramps whose value is the level-0 coordinate: a
+// keypoint on level n's pixel p, as cv::ORB reports it (p 1.2^n), is moved to the value there.
+TEST(Features, KeypointsArePlacedOnTheirContent) {
+  for (const cv::Size size : {cv::Size(640, 480), cv::Size(752, 480)}) {
+    cv::Mat ramp_x(size, CV_32F), ramp_y(size, CV_32F);
+    for (int y = 0; y < size.height; ++y) {
+      for (int x = 0; x < size.width; ++x) {
+        ramp_x.at<float>(y, x) = static_cast<float>(x);
+        ramp_y.at<float>(y, x) = static_cast<float>(y);
+      }
+    }
+    cv::Mat level_x = ramp_x, level_y = ramp_y;
+    for (int n = 1; n < 6; ++n) {
+      const float s = static_cast<float>(std::pow(static_cast<double>(1.2f), n));
+      const cv::Size sz(cvRound(size.width / s), cvRound(size.height / s));
+      cv::resize(level_x, level_x, sz, 0, 0, cv::INTER_LINEAR_EXACT);
+      cv::resize(level_y, level_y, sz, 0, 0, cv::INTER_LINEAR_EXACT);
+      std::vector<cv::KeyPoint> kps;
+      std::vector<cv::Point> at;  // away from the clamped first and last rows and columns
+      for (int y = 1; y < sz.height - 1; y += 7) {
+        for (int x = 1; x < sz.width - 1; x += 5) {
+          kps.emplace_back(cv::Point2f(x * s, y * s), 31.f * s, -1.f, 0.f, n);
+          at.emplace_back(x, y);
+        }
+      }
+      const std::vector<cv::KeyPoint> reported = kps;
+      placeOnTheirContent(size, 1.2, &kps);
+      double worst = 0, worst_reported = 0;
+      for (std::size_t i = 0; i < kps.size(); ++i) {
+        const cv::Point2f truth(level_x.at<float>(at[i]), level_y.at<float>(at[i]));
+        worst = std::max(worst, cv::norm(kps[i].pt - truth));
+        worst_reported = std::max(worst_reported, cv::norm(reported[i].pt - truth));
+        EXPECT_EQ(kps[i].octave, n);
+      }
+      EXPECT_LT(worst, 1e-3) << size << " level " << n;
+      EXPECT_GT(worst_reported, 0.2) << size << " level " << n;  // what is mended is there to mend
+    }
+  }
+  // Level 0 stays where it is.
+  std::vector<cv::KeyPoint> kps{cv::KeyPoint(cv::Point2f(100.25f, 50.5f), 31.f, -1.f, 0.f, 0)};
+  placeOnTheirContent(cv::Size(640, 480), 1.2, &kps);
+  EXPECT_EQ(kps[0].pt, cv::Point2f(100.25f, 50.5f));
+}
+
 // The SIMD sums (16 columns a block, the last block overlapping, 32-bit flushes for large patches)
 // equal plain sums: worst-case contrast (0 against 255, so a 16-bit sum would overflow for h >= 8),
 // every patch size the matcher uses and beyond, runs that end at the image's right edge.
