@@ -97,6 +97,59 @@ TEST(Features, KeypointsArePlacedOnTheirContent) {
   EXPECT_EQ(kps[0].pt, cv::Point2f(100.25f, 50.5f));
 }
 
+// End to end through cv::ORB: white squares on black, each seen on a level by its four corners'
+// keypoints, whose mean is the square's centre whatever FAST's bias at a corner (the four
+// biases cancel). Placed, those means sit on the centres; as cv::ORB reports them, up to 1.5 px
+// off, up and to the left.
+TEST(Features, CvOrbKeypointsPlacedOnTheirContent) {
+  constexpr int kSide = 29, kStep = 43;  // px: 54 to 115 squares a level
+  cv::Mat img(480, 640, CV_8U, cv::Scalar(0));
+  std::vector<cv::Point2d> centres;
+  for (int y = 30; y + kSide < 470; y += kStep) {
+    for (int x = 30; x + kSide < 630; x += kStep) {
+      img(cv::Rect(x, y, kSide, kSide)).setTo(255);
+      centres.emplace_back(x + (kSide - 1) / 2.0, y + (kSide - 1) / 2.0);
+    }
+  }
+  const cv::Ptr<cv::ORB> orb = cv::ORB::create(5000, 1.2f, 6, 19, 0, 2, cv::ORB::FAST_SCORE, 31, 20);
+  std::vector<cv::KeyPoint> reported;
+  orb->detect(img, reported);
+  std::vector<cv::KeyPoint> placed = reported;
+  placeOnTheirContent(img.size(), 1.2, &placed);
+  for (int level = 1; level < 6; ++level) {
+    cv::Point2d sum_placed(0, 0), sum_reported(0, 0);
+    int squares = 0;
+    for (const cv::Point2d& c : centres) {
+      // The keypoints of this level around this square's corners, one per corner.
+      std::vector<std::size_t> at;
+      for (std::size_t i = 0; i < reported.size(); ++i) {
+        const cv::Point2f& p = reported[i].pt;
+        if (reported[i].octave == level && std::abs(p.x - c.x) < kSide * 0.75 && std::abs(p.y - c.y) < kSide * 0.75)
+          at.push_back(i);
+      }
+      int quadrants = 0;
+      for (std::size_t i : at) quadrants |= 1 << ((reported[i].pt.x > c.x) + 2 * (reported[i].pt.y > c.y));
+      if (at.size() != 4 || quadrants != 15) continue;
+      cv::Point2d mean_placed(0, 0), mean_reported(0, 0);
+      for (std::size_t i : at) {
+        mean_placed += cv::Point2d(placed[i].pt) / 4.0;
+        mean_reported += cv::Point2d(reported[i].pt) / 4.0;
+      }
+      sum_placed += mean_placed - c;
+      sum_reported += mean_reported - c;
+      ++squares;
+    }
+    ASSERT_GE(squares, 10) << "level " << level;
+    const cv::Point2d off_placed = sum_placed / squares, off_reported = sum_reported / squares;
+    // (Measured with OpenCV 4.6: reported 0.40-1.20 px off, placed 0.02-0.15: what is left is
+    // FAST's corners on a level's pixel grid, averaged over the squares.)
+    EXPECT_LT(cv::norm(off_placed), 0.2) << "level " << level << ": " << off_placed;
+    EXPECT_GT(cv::norm(off_reported), 0.35) << "level " << level << ": " << off_reported;
+    std::printf("[ figures  ] level %d: squares %d, mean offset reported (%.2f, %.2f) px, placed (%.2f, %.2f)\n", level,
+                squares, off_reported.x, off_reported.y, off_placed.x, off_placed.y);
+  }
+}
+
 // The SIMD sums (16 columns a block, the last block overlapping, 32-bit flushes for large patches)
 // equal plain sums: worst-case contrast (0 against 255, so a 16-bit sum would overflow for h >= 8),
 // every patch size the matcher uses and beyond, runs that end at the image's right edge.
