@@ -52,7 +52,7 @@ class FeatureExtractor {
 // cv::ORB reports a level-n keypoint at its pixel p on level n times scale_factor^n, but builds
 // level n from level n-1 by cv::resize to cvRound(W_0 / scale_factor^n) columns (and rows), whose
 // pixel p holds level n-1 at (p + 0.5) W_{n-1} / W_n - 0.5: not the same place. In a 640 x 480
-// image, 0.1 to 1.2 px off in x and -0.02 to 1.5 px in y on levels 1-5, varying across the image
+// image, -0.2 to 1.2 px off in x and -0.02 to 1.5 px in y on levels 1-5, varying across the image
 // (a shift and a scale about its corner). Moves every keypoint of level > 0 to
 // where its content lies in the image given to cv::ORB (image: that image's size; scale_factor:
 // cv::ORB's). ORB-SLAM3's extractor has the same flaw (patches/orbslam3, 0015).
