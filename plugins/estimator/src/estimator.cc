@@ -25,9 +25,10 @@
 #include "rvwo/edges/wheel_edge.h"
 #include "rvwo/estimator/features.h"
 #include "rvwo/kernels/barron.h"
-#include "rvwo/pose/planar_pose.h"
 #include "rvwo/semantics/async_segmenter.h"
 #include "rvwo/semantics/label_lookup.h"
+#include "rvwo/tracking/planar_pose.h"
+#include "rvwo/tracking/wheel_checks.h"
 
 namespace rvwo::estimator {
 namespace {

@@ -20,11 +20,12 @@
 #include "rvwo/edges/wheel_preintegration.h"
 #include "rvwo/kernels/reliability.h"
 #include "rvwo/kernels/semantic_priors.h"
-#include "rvwo/pose/planar_pose.h"
 #include "rvwo/semantics/async_segmenter.h"
 #include "rvwo/semantics/label_lookup.h"
 #include "rvwo/semantics/onnx_segmenter.h"
 #include "rvwo/settings/settings.h"
+#include "rvwo/tracking/planar_pose.h"
+#include "rvwo/tracking/wheel_checks.h"
 
 namespace rvwo::orbslam3 {
 namespace {
@@ -554,7 +555,7 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   double slip_from = from_anchor ? m.anchor.t : pb.t_previous;
   const bool strained = edge && wheelEdgeStrained(*edge, x_prev, x);
   if (edge && m.params.slip_check) {
-    // Vision alone every frame (0.5 to 2 ms for 100 to 300 matches, rvwo_bench_pose; ORB-SLAM3's
+    // Vision alone every frame (0.5 to 2 ms for 100 to 300 matches, rvwo_bench_tracking; ORB-SLAM3's
     // TrackFrame averaged 26 to 28 ms on the stereo slip scenario with it): its own track is what
     // shows wheels that creep.
     Eigen::Vector3d x_vision = x_prev;

@@ -2,13 +2,13 @@
 // One frame's pose on SE(2) (rvwo::optimisePlanarPose), as tracking runs it for every frame: n
 // matches (two in three stereo), 10 % gross outliers, a prediction 10 cm and 3 degrees off, the
 // wheel edge from the previous frame. Arguments: matches, kernel (0 Huber, 1 adaptive Barron with
-// alphas spread over [-2, 1]). Run: build/benchmarks/rvwo_bench_pose
+// alphas spread over [-2, 1]). Run: build/benchmarks/rvwo_bench_tracking
 #include <benchmark/benchmark.h>
 
 #include <random>
 
 #include "rvwo/edges/se2.h"
-#include "rvwo/pose/planar_pose.h"
+#include "rvwo/tracking/planar_pose.h"
 
 namespace {
 

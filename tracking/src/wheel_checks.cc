@@ -1,134 +1,12 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
-#include "rvwo/pose/planar_pose.h"
+#include "rvwo/tracking/wheel_checks.h"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
-#include "rvwo/kernels/barron.h"
-
 namespace rvwo {
-namespace {
-
-// Whether a match may place the pose: usable, and not rejected by its kernel (Huber ignores alpha).
-bool placesThePose(const PoseObservation& o, const PlanarPoseOptions& opt) {
-  return o.usable && (opt.huber || o.alpha != -BarronKernel::kInfinity);
-}
-
-// IRLS weight rho'(s) of a squared whitened error s: Huber at the gate's root, or Barron.
-double weight(double s, const BarronKernel& kernel, bool huber, bool stereo) {
-  if (huber) {
-    const double c = std::sqrt(chi2Gate(stereo)), r = std::sqrt(s);
-    return r <= c ? 1.0 : c / r;
-  }
-  double rho[3];
-  kernel.evaluate(s, rho);
-  return rho[1];
-}
-
-// One Gauss-Newton term (w J^T J, w J^T r) of the whitened edge; false when it does not project.
-template <int N>
-bool accumulate(const Se2XyzEdge<N>& edge, const PoseObservation& o, const Eigen::Vector3d& x,
-                const Eigen::Matrix<double, N, N>& S, const BarronKernel& kernel, bool huber, Eigen::Matrix3d* H,
-                Eigen::Vector3d* g) {
-  Eigen::Matrix<double, N, 1> r;
-  Eigen::Matrix<double, N, 3> J;
-  if (!edge.residual(x, o.P_w, o.z.head<N>(), &r, &J)) return false;
-  const Eigen::Matrix<double, N, 1> rw = S * r;
-  const Eigen::Matrix<double, N, 3> Jw = S * J;
-  const double w = weight(rw.squaredNorm(), kernel, huber, N == 3);
-  *H += w * Jw.transpose() * Jw;
-  *g += w * Jw.transpose() * rw;
-  return true;
-}
-
-template <int N>
-bool chi2Of(const Se2XyzEdge<N>& edge, const PoseObservation& o, const Eigen::Vector3d& x, const OutOfPlaneNoise& noise,
-            double* out) {
-  Eigen::Matrix<double, N, 1> r;
-  if (!edge.residual(x, o.P_w, o.z.head<N>(), &r)) return false;
-  *out = (edge.sqrtInformation(x, o.P_w, o.sigma_px, noise) * r).squaredNorm();
-  return true;
-}
-
-}  // namespace
-
-bool whitenedChi2(const Se2XyzMonoEdge& mono, const Se2XyzStereoEdge* stereo, const PoseObservation& o,
-                  const Eigen::Vector3d& x, const OutOfPlaneNoise& out_of_plane, double* chi2) {
-  if (o.stereo) {
-    if (!stereo) throw std::invalid_argument("optimisePlanarPose: a stereo observation without a stereo edge");
-    return chi2Of(*stereo, o, x, out_of_plane, chi2);
-  }
-  return chi2Of(mono, o, x, out_of_plane, chi2);
-}
-
-PlanarPoseResult optimisePlanarPose(const Se2XyzMonoEdge& mono, const Se2XyzStereoEdge* stereo,
-                                    const std::vector<PoseObservation>& obs, const WheelPrior& prior,
-                                    const PlanarPoseOptions& opt, Eigen::Vector3d* x) {
-  const std::size_t n = obs.size();
-  PlanarPoseResult out;
-  out.inlier.resize(n);
-  for (std::size_t k = 0; k < n; ++k) out.inlier[k] = obs[k].first_round;
-  out.error.assign(n, 0.0);
-  std::vector<char> usable(n);
-  std::vector<BarronKernel> kernel;  // per match, made once (its constants depend on alpha alone)
-  kernel.reserve(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const PoseObservation& o = obs[k];
-    if (o.stereo && !stereo)
-      throw std::invalid_argument("optimisePlanarPose: a stereo observation without a stereo edge");
-    usable[k] = placesThePose(o, opt);
-    kernel.emplace_back(o.alpha, std::sqrt(chi2Gate(o.stereo)) * opt.barron_scale);
-  }
-  std::vector<Eigen::Matrix3d> S3(n);
-  std::vector<Eigen::Matrix2d> S2(n);
-  for (int round = 0; round < opt.rounds; ++round) {
-    // Square-root information at this round's linearisation point (eq. 10, out-of-plane inflation).
-    for (std::size_t k = 0; k < n; ++k) {
-      if (!usable[k]) continue;
-      if (obs[k].stereo) {
-        S3[k] = stereo->sqrtInformation(*x, obs[k].P_w, obs[k].sigma_px, opt.out_of_plane);
-      } else {
-        S2[k] = mono.sqrtInformation(*x, obs[k].P_w, obs[k].sigma_px, opt.out_of_plane);
-      }
-    }
-    for (int it = 0; it < opt.iterations; ++it) {
-      Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d g = Eigen::Vector3d::Zero();
-      for (std::size_t k = 0; k < n; ++k) {
-        if (!usable[k] || !out.inlier[k]) continue;
-        const bool ok = obs[k].stereo ? accumulate<3>(*stereo, obs[k], *x, S3[k], kernel[k], opt.huber, &H, &g)
-                                      : accumulate<2>(mono, obs[k], *x, S2[k], kernel[k], opt.huber, &H, &g);
-        if (!ok) out.inlier[k] = 0;
-      }
-      out.information = H;
-      if (prior.edge) {
-        Eigen::Matrix3d Jj;
-        const Eigen::Matrix3d& S = prior.edge->sqrtInformation();
-        const Eigen::Vector3d r = S * prior.edge->residual(prior.x_prev, *x, nullptr, &Jj);
-        const Eigen::Matrix3d Jw = S * Jj;
-        H += Jw.transpose() * Jw;
-        g += Jw.transpose() * r;
-      }
-      H.diagonal().array() += 1e-9;  // no match and no prior: a zero step rather than NaN
-      const Eigen::Vector3d dx = -H.ldlt().solve(g);
-      if (!dx.allFinite()) break;
-      *x += dx;
-      x->z() = wrapAngle(x->z());
-      if (dx.head<2>().norm() < 1e-6 && std::fabs(dx.z()) < 1e-7) break;
-    }
-    // Classify against the gate (every match, so that a rejected one may come back).
-    out.inliers = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-      double e2 = 1e9;
-      whitenedChi2(mono, stereo, obs[k], *x, opt.out_of_plane, &e2);
-      out.error[k] = std::sqrt(e2);
-      out.inlier[k] = usable[k] && e2 <= chi2Gate(obs[k].stereo);
-      out.inliers += out.inlier[k];
-    }
-  }
-  return out;
-}
 
 WheelTolerance::WheelTolerance(const WheelDelta& wheels)
     : translation(3.0 * std::sqrt(wheels.covariance(0, 0) + wheels.covariance(1, 1)) + 0.005),
@@ -242,24 +120,6 @@ bool wheelsStall(const WheelDelta& stretch, const SE2& T_b0_b1_vision) {
 
 bool wheelEdgeStrained(const WheelEdge& edge, const Eigen::Vector3d& x_prev, const Eigen::Vector3d& x) {
   return (edge.sqrtInformation() * edge.residual(x_prev, x)).squaredNorm() > kChi2WheelOutlier;
-}
-
-bool solveFromTheWheels(const Se2XyzMonoEdge& mono, const Se2XyzStereoEdge* stereo, std::vector<PoseObservation> obs,
-                        const WheelPrior& prior, const PlanarPoseOptions& opt, const Eigen::Vector3d& x_predicted,
-                        const std::vector<char>& counted, int min_agree, Eigen::Vector3d* x, PlanarPoseResult* r) {
-  if (counted.size() != obs.size()) throw std::invalid_argument("solveFromTheWheels: counted and obs differ in size");
-  int agree = 0;
-  for (std::size_t k = 0; k < obs.size(); ++k) {
-    double e2 = 1e9;
-    PoseObservation& o = obs[k];
-    o.first_round = placesThePose(o, opt) && whitenedChi2(mono, stereo, o, x_predicted, opt.out_of_plane, &e2) &&
-                    e2 <= chi2Gate(o.stereo);
-    agree += o.first_round && counted[k];
-  }
-  if (agree < min_agree) return false;
-  *x = x_predicted;
-  *r = optimisePlanarPose(mono, stereo, obs, prior, opt, x);
-  return true;
 }
 
 bool slipWorthChecking(bool was_slipping, bool strained, std::size_t matches, int fused_inliers) {
