@@ -448,278 +448,373 @@ class OrbSlam3Backend {
 };
 #endif
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  try {
-    TCLAP::CmdLine cmd(
-        "rvwo-replay: replays a rawlog (camera and wheel odometry, docs/rawlog.md) through the RVWO estimator "
-        "(visual-wheel odometry on SE(2) with adaptive robust kernels, local bundle adjustment, segmentation of "
-        "keyframes) and writes the robot's pose at every frame in TUM format, a report and a PNG plot. "
-        "Example: rvwo-sim --scenario scenarios/dynamic.yaml --out seq --duration 20 && rvwo-replay --settings "
-        "seq/settings.yaml --rawlog seq/sequence.rawlog --out traj.txt --gt seq/groundtruth.txt",
-        ' ', "0.1");
-    TCLAP::ValueArg<std::string> settings_arg("", "settings", "settings YAML (camera, extrinsic, odometry, ...)", true,
-                                              "", "S.yaml", cmd);
-    TCLAP::ValueArg<std::string> rawlog_arg("", "rawlog", "the recording", true, "", "R.rawlog", cmd);
-    TCLAP::ValueArg<std::string> out_arg("", "out", "trajectory file to write (TUM format)", true, "", "traj.txt", cmd);
-    TCLAP::ValueArg<std::string> gt_arg("", "gt", "ground truth (TUM): the report gives the ATE and the plot shows it",
-                                        false, "", "gt.txt", cmd);
-    TCLAP::ValueArg<std::string> mode_arg("", "mode",
-                                          "wheel: dead reckoning; vo: vision only; vw: vision and wheels (default)",
-                                          false, "vw", "wheel|vo|vw", cmd);
-    TCLAP::ValueArg<std::string> kernel_arg(
-        "", "kernel",
-        "robust kernel on visual residuals: huber, fixed:<alpha> (a Barron shape for all), adaptive (default: each "
-        "landmark's shape from its reliability)",
-        false, "adaptive", "huber|fixed:A|adaptive", cmd);
-    TCLAP::SwitchArg no_semantics("", "no-semantics", "ignore labels: reliability from reprojection errors only", cmd);
-    TCLAP::ValueArg<std::string> segmenter_arg(
-        "", "segmenter",
-        "labels for keyframes: rawlog (the LABELS images in the rawlog, default when present), onnx:<model.onnx> "
-        "(a network, e.g. ../shared/models/deeplabv3_mnv2_voc21.onnx), or none",
-        false, "auto", "rawlog|onnx:FILE|none", cmd);
-    TCLAP::SwitchArg deterministic("", "deterministic",
-                                   "one thread, mapping and segmentation inline: same input, same output", cmd);
-    TCLAP::ValueArg<double> realtime_arg(
-        "", "realtime",
-        "feed the records at the pace they were recorded, x times faster (1: as on the robot); 0: as fast as "
-        "tracking goes, which leaves local mapping and segmentation (threads of their own) behind it. Default: 0, "
-        "and 1 with --backend orbslam3 (as ORB-SLAM3's examples feed it)",
-        false, 0, "x", cmd);
-    TCLAP::ValueArg<std::string> plot_arg("", "plot", "PNG to write (default: the --out file with .png)", false, "",
-                                          "file.png", cmd);
-    TCLAP::ValueArg<std::string> align_arg("", "align", "ATE alignment: se3 (default), sim3, posyaw, none", false,
-                                           "se3", "se3|...", cmd);
-    TCLAP::SwitchArg quiet("", "quiet", "no progress line", cmd);
+// The command line, in the order --help lists it.
+struct ReplayArgs {
+  TCLAP::CmdLine cmd{
+      "rvwo-replay: replays a rawlog (camera and wheel odometry, docs/rawlog.md) through the RVWO estimator "
+      "(visual-wheel odometry on SE(2) with adaptive robust kernels, local bundle adjustment, segmentation of "
+      "keyframes) and writes the robot's pose at every frame in TUM format, a report and a PNG plot. "
+      "Example: rvwo-sim --scenario scenarios/dynamic.yaml --out seq --duration 20 && rvwo-replay --settings "
+      "seq/settings.yaml --rawlog seq/sequence.rawlog --out traj.txt --gt seq/groundtruth.txt",
+      ' ', "0.1"};
+  TCLAP::ValueArg<std::string> settings{
+      "", "settings", "settings YAML (camera, extrinsic, odometry, ...)", true, "", "S.yaml", cmd};
+  TCLAP::ValueArg<std::string> rawlog{"", "rawlog", "the recording", true, "", "R.rawlog", cmd};
+  TCLAP::ValueArg<std::string> out{"", "out", "trajectory file to write (TUM format)", true, "", "traj.txt", cmd};
+  TCLAP::ValueArg<std::string> gt{
+      "", "gt", "ground truth (TUM): the report gives the ATE and the plot shows it", false, "", "gt.txt", cmd};
+  TCLAP::ValueArg<std::string> mode{
+      "", "mode", "wheel: dead reckoning; vo: vision only; vw: vision and wheels (default)", false, "vw", "wheel|vo|vw",
+      cmd};
+  TCLAP::ValueArg<std::string> kernel{
+      "",
+      "kernel",
+      "robust kernel on visual residuals: huber, fixed:<alpha> (a Barron shape for all), adaptive (default: each "
+      "landmark's shape from its reliability)",
+      false,
+      "adaptive",
+      "huber|fixed:A|adaptive",
+      cmd};
+  TCLAP::SwitchArg no_semantics{"", "no-semantics", "ignore labels: reliability from reprojection errors only", cmd};
+  TCLAP::ValueArg<std::string> segmenter{
+      "",
+      "segmenter",
+      "labels for keyframes: rawlog (the LABELS images in the rawlog, default when present), onnx:<model.onnx> "
+      "(a network, e.g. ../shared/models/deeplabv3_mnv2_voc21.onnx), or none",
+      false,
+      "auto",
+      "rawlog|onnx:FILE|none",
+      cmd};
+  TCLAP::SwitchArg deterministic{"", "deterministic",
+                                 "one thread, mapping and segmentation inline: same input, same output", cmd};
+  TCLAP::ValueArg<double> realtime{
+      "",
+      "realtime",
+      "feed the records at the pace they were recorded, x times faster (1: as on the robot); 0: as fast as "
+      "tracking goes, which leaves local mapping and segmentation (threads of their own) behind it. Default: 0, "
+      "and 1 with --backend orbslam3 (as ORB-SLAM3's examples feed it)",
+      false,
+      0,
+      "x",
+      cmd};
+  TCLAP::ValueArg<std::string> plot{"",         "plot", "PNG to write (default: the --out file with .png)", false, "",
+                                    "file.png", cmd};
+  TCLAP::ValueArg<std::string> align{
+      "", "align", "ATE alignment: se3 (default), sim3, posyaw, none", false, "se3", "se3|...", cmd};
+  TCLAP::SwitchArg quiet{"", "quiet", "no progress line", cmd};
 #ifdef RVWO_WITH_ORBSLAM3
-    TCLAP::ValueArg<std::string> backend_arg(
-        "", "backend",
-        "rvwo (default): RVWO's estimator; orbslam3: the patched ORB-SLAM3 this build was given (--mode vw: with "
-        "the wheels, vo: without, as upstream; --kernel adaptive|huber and, with the wheels, the keyframes' labels "
-        "(--segmenter, --no-semantics) apply to its tracking)",
-        false, "rvwo", "rvwo|orbslam3", cmd);
-    TCLAP::ValueArg<std::string> vocabulary_arg(
-        "", "vocabulary", "ORB-SLAM3's DBoW2 vocabulary, text (--backend orbslam3; rvwo-orbslam3-vocab makes one)",
-        false, "", "voc.txt", cmd);
+  TCLAP::ValueArg<std::string> backend{
+      "",
+      "backend",
+      "rvwo (default): RVWO's estimator; orbslam3: the patched ORB-SLAM3 this build was given (--mode vw: with "
+      "the wheels, vo: without, as upstream; --kernel adaptive|huber and, with the wheels, the keyframes' labels "
+      "(--segmenter, --no-semantics) apply to its tracking)",
+      false,
+      "rvwo",
+      "rvwo|orbslam3",
+      cmd};
+  TCLAP::ValueArg<std::string> vocabulary{
+      "",    "vocabulary", "ORB-SLAM3's DBoW2 vocabulary, text (--backend orbslam3; rvwo-orbslam3-vocab makes one)",
+      false, "",           "voc.txt",
+      cmd};
 #endif
-    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
-    FLAGS_minloglevel = 2;
+};
 
-    // ---- settings and options ----
-    const rvwo::Settings settings = rvwo::Settings::load(settings_arg.getValue());
-    rvwo::estimator::Rig rig = rvwo::estimator::readRig(settings);
-    rvwo::estimator::EstimatorOptions opt;
-    const std::string mode = mode_arg.getValue(), kernel = kernel_arg.getValue();
-    if (mode == "wheel") {
-      opt.mode = rvwo::estimator::Mode::kWheel;
-    } else if (mode == "vo") {
-      opt.mode = rvwo::estimator::Mode::kVo;
-    } else if (mode == "vw") {
-      opt.mode = rvwo::estimator::Mode::kVw;
-    } else {
-      throw std::invalid_argument("--mode must be wheel, vo or vw, not '" + mode + "'");
+// What the command line asked for, as plain values.
+struct ReplayRequest {
+  std::string settings, rawlog, out, gt, mode, kernel, segmenter, plot, align, backend = "rvwo", vocabulary;
+  bool no_semantics = false, deterministic = false, quiet = false, realtime_set = false;
+  double realtime = 0;
+
+  explicit ReplayRequest(ReplayArgs& a)
+      : settings(a.settings.getValue()),
+        rawlog(a.rawlog.getValue()),
+        out(a.out.getValue()),
+        gt(a.gt.getValue()),
+        mode(a.mode.getValue()),
+        kernel(a.kernel.getValue()),
+        segmenter(a.segmenter.getValue()),
+        plot(a.plot.getValue()),
+        align(a.align.getValue()),
+#ifdef RVWO_WITH_ORBSLAM3
+        backend(a.backend.getValue()),
+        vocabulary(a.vocabulary.getValue()),
+#endif
+        no_semantics(a.no_semantics.getValue()),
+        deterministic(a.deterministic.getValue()),
+        quiet(a.quiet.getValue()),
+        realtime_set(a.realtime.isSet()),
+        realtime(a.realtime.getValue()) {
+  }
+};
+
+rvwo::estimator::Mode parseMode(const std::string& mode) {
+  if (mode == "wheel") return rvwo::estimator::Mode::kWheel;
+  if (mode == "vo") return rvwo::estimator::Mode::kVo;
+  if (mode == "vw") return rvwo::estimator::Mode::kVw;
+  throw std::invalid_argument("--mode must be wheel, vo or vw, not '" + mode + "'");
+}
+
+// --kernel into opt's kernel choice (and its alpha for fixed:<alpha>).
+void parseKernel(const std::string& kernel, rvwo::estimator::EstimatorOptions* opt) {
+  if (kernel == "huber") {
+    opt->kernel = rvwo::estimator::KernelChoice::kHuber;
+  } else if (kernel == "adaptive") {
+    opt->kernel = rvwo::estimator::KernelChoice::kAdaptive;
+  } else if (kernel.rfind("fixed:", 0) == 0) {
+    opt->kernel = rvwo::estimator::KernelChoice::kFixed;
+    try {
+      opt->fixed_alpha = kernel.substr(6) == "-inf" ? -INFINITY : std::stod(kernel.substr(6));
+    } catch (const std::exception&) {
+      throw std::invalid_argument("--kernel fixed:<alpha>: '" + kernel.substr(6) + "' is not a number");
     }
-    if (kernel == "huber") {
-      opt.kernel = rvwo::estimator::KernelChoice::kHuber;
-    } else if (kernel == "adaptive") {
-      opt.kernel = rvwo::estimator::KernelChoice::kAdaptive;
-    } else if (kernel.rfind("fixed:", 0) == 0) {
-      opt.kernel = rvwo::estimator::KernelChoice::kFixed;
-      try {
-        opt.fixed_alpha = kernel.substr(6) == "-inf" ? -INFINITY : std::stod(kernel.substr(6));
-      } catch (const std::exception&) {
-        throw std::invalid_argument("--kernel fixed:<alpha>: '" + kernel.substr(6) + "' is not a number");
-      }
-    } else {
-      throw std::invalid_argument("--kernel must be huber, fixed:<alpha> or adaptive, not '" + kernel + "'");
+  } else {
+    throw std::invalid_argument("--kernel must be huber, fixed:<alpha> or adaptive, not '" + kernel + "'");
+  }
+}
+
+// --realtime: a record of time t goes in no sooner than (t - t_ref) / x after t_ref's. A time that
+// is not after the last paced one (a bad record, skipped further on) does not move the pace, and a
+// gap of over kMaxGap (a recording paused, or a corrupt time) is not waited for.
+class Pacer {
+ public:
+  Pacer(double speedup, std::chrono::steady_clock::time_point start) : speedup_(speedup), wall_(start) {}
+  void wait(double t) {
+    constexpr double kMaxGap = 1.0;  // s of data
+    if (!(speedup_ > 0) || !std::isfinite(t)) return;
+    if (std::isnan(ref_) || t - last_ > kMaxGap) {
+      ref_ = last_ = t;
+      wall_ = std::chrono::steady_clock::now();
+      return;
     }
-    opt.semantics = !no_semantics.getValue();
-    opt.deterministic = deterministic.getValue();
-    double realtime = realtime_arg.getValue();
-    if (realtime_arg.isSet() && !(realtime >= 0 && std::isfinite(realtime)))
+    if (!(t > last_)) return;
+    last_ = t;
+    std::this_thread::sleep_until(wall_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                              std::chrono::duration<double>((t - ref_) / speedup_)));
+  }
+
+ private:
+  double speedup_, ref_ = NAN, last_ = NAN;
+  std::chrono::steady_clock::time_point wall_;
+};
+
+// rvwo-replay: the command line read (configure), the rawlog fed to a backend (replay), the
+// trajectory and the report written (report), the plot drawn (plot).
+class ReplayApp {
+ public:
+  int run(int argc, char** argv) {
+    ReplayArgs args;
+    if (const auto status = rvwo::apps::parseCommandLine(args.cmd, argc, argv)) return *status;
+    req_.emplace(args);
+    FLAGS_minloglevel = 2;
+    configure();
+    makeSegmenter();
+    makeBackend();
+    replay();
+    finish();
+    checkWhatWasRead();
+    rvwo::apps::writeTum(req().out, est_);
+    report();
+    plot();
+    if (!read_error_.empty()) {
+      std::fprintf(stderr, "rvwo-replay: error: %s (the %zu frames before it are written to %s)\n", read_error_.c_str(),
+                   rep_.frames, req().out.c_str());
+      return 1;
+    }
+    return 0;
+  }
+
+ private:
+  const ReplayRequest& req() const { return *req_; }
+  bool vw() const { return opt_.mode == rvwo::estimator::Mode::kVw; }
+
+  // Settings and options; a combination that cannot run is refused here, before any work.
+  void configure() {
+    settings_ = rvwo::Settings::load(req().settings);
+    const rvwo::Settings& settings = *settings_;
+    rig_ = rvwo::estimator::readRig(settings);
+    opt_.mode = parseMode(req().mode);
+    parseKernel(req().kernel, &opt_);
+    opt_.semantics = !req().no_semantics;
+    opt_.deterministic = req().deterministic;
+    realtime_ = req().realtime;
+    if (req().realtime_set && !(realtime_ >= 0 && std::isfinite(realtime_)))
       throw std::invalid_argument("--realtime must be a speed-up above 0 (1: as recorded) or 0 (as fast as it goes)");
-    if (realtime > 0 && opt.deterministic)
+    if (realtime_ > 0 && opt_.deterministic)
       throw std::invalid_argument(
           "--realtime paces the threads; --deterministic has none (its output does not "
           "depend on time): give one of the two");
-    opt = rvwo::estimator::readEstimatorOptions(settings, opt);
-    const double ticks_per_rev = settings.number("Odometry.TicksPerRevolution").value_or(0);
-    const std::string odometry_input =
-        settings.text("Odometry.Input").value_or(ticks_per_rev > 0 ? "encoders" : "pose");
-    if (odometry_input != "encoders" && odometry_input != "velocities" && odometry_input != "pose")
+    opt_ = rvwo::estimator::readEstimatorOptions(settings, opt_);
+    ticks_per_rev_ = settings.number("Odometry.TicksPerRevolution").value_or(0);
+    odometry_input_ = settings.text("Odometry.Input").value_or(ticks_per_rev_ > 0 ? "encoders" : "pose");
+    if (odometry_input_ != "encoders" && odometry_input_ != "velocities" && odometry_input_ != "pose")
       throw std::invalid_argument(settings.path() +
                                   ": Odometry.Input must be \"encoders\", \"velocities\" or \"pose\"");
-    if (odometry_input == "encoders" && !(ticks_per_rev > 0))
+    if (odometry_input_ == "encoders" && !(ticks_per_rev_ > 0))
       throw std::invalid_argument(settings.path() + ": missing key Odometry.TicksPerRevolution (for encoders)");
-    if (rig.sensor == rvwo::estimator::Sensor::kRgbd) rig.depth_factor = 1.0;  // the reader gives metres
-    bool use_orbslam3 = false;
+    if (rig_.sensor == rvwo::estimator::Sensor::kRgbd) rig_.depth_factor = 1.0;  // the reader gives metres
 #ifdef RVWO_WITH_ORBSLAM3
-    if (backend_arg.getValue() == "orbslam3") {
-      use_orbslam3 = true;
-      if (opt.mode == rvwo::estimator::Mode::kWheel)
+    if (req().backend == "orbslam3") {
+      use_orbslam3_ = true;
+      if (opt_.mode == rvwo::estimator::Mode::kWheel)
         throw std::invalid_argument("--backend orbslam3 takes --mode vw or vo (wheel: --backend rvwo)");
-      if (vocabulary_arg.getValue().empty())
+      if (req().vocabulary.empty())
         throw std::invalid_argument("--backend orbslam3 needs --vocabulary (rvwo-orbslam3-vocab makes one)");
-      if (opt.kernel == rvwo::estimator::KernelChoice::kFixed)
+      if (opt_.kernel == rvwo::estimator::KernelChoice::kFixed)
         throw std::invalid_argument("--backend orbslam3 takes --kernel adaptive or huber");
-      if (opt.deterministic)
+      if (opt_.deterministic)
         throw std::invalid_argument("--deterministic is RVWO's estimator's; ORB-SLAM3 runs threads of its own");
-      if (!realtime_arg.isSet()) realtime = 1.0;  // as ORB-SLAM3's examples feed it (header)
-    } else if (backend_arg.getValue() != "rvwo") {
-      throw std::invalid_argument("--backend must be rvwo or orbslam3, not '" + backend_arg.getValue() + "'");
+      if (!req().realtime_set) realtime_ = 1.0;  // as ORB-SLAM3's examples feed it (header)
+    } else if (req().backend != "rvwo") {
+      throw std::invalid_argument("--backend must be rvwo or orbslam3, not '" + req().backend + "'");
     }
 #endif
+  }
 
-    // ---- segmentation ----
-    std::shared_ptr<rvwo::Segmenter> segmenter;
-    std::shared_ptr<RawlogLabels> rawlog_labels;
-    std::string seg = segmenter_arg.getValue(), seg_name = "none";
-    if (opt.semantics && seg != "none") {
-      if (seg == "auto" || seg == "rawlog") {
-        rawlog_labels = std::make_shared<RawlogLabels>(opt.priors.classes());
-        segmenter = rawlog_labels;
-        seg_name = "label images from the rawlog";
-      } else if (seg.rfind("onnx:", 0) == 0) {
-        rvwo::OnnxSegmenterOptions o;
-        o.model_path = seg.substr(5);
-        o.class_names = opt.priors.classes();
-        segmenter = std::make_shared<rvwo::OnnxSegmenter>(o);
-        seg_name = "ONNX model " + o.model_path;
-      } else {
-        throw std::invalid_argument("--segmenter must be rawlog, onnx:<file> or none, not '" + seg + "'");
-      }
+  void makeSegmenter() {
+    const std::string& seg = req().segmenter;
+    if (!opt_.semantics) {
+      seg_name_ = "off (--no-semantics)";
+      return;
     }
-    if (!opt.semantics) seg_name = "off (--no-semantics)";
+    if (seg == "none") return;
+    if (seg == "auto" || seg == "rawlog") {
+      rawlog_labels_ = std::make_shared<RawlogLabels>(opt_.priors.classes());
+      segmenter_ = rawlog_labels_;
+      seg_name_ = "label images from the rawlog";
+    } else if (seg.rfind("onnx:", 0) == 0) {
+      rvwo::OnnxSegmenterOptions o;
+      o.model_path = seg.substr(5);
+      o.class_names = opt_.priors.classes();
+      segmenter_ = std::make_shared<rvwo::OnnxSegmenter>(o);
+      seg_name_ = "ONNX model " + o.model_path;
+    } else {
+      throw std::invalid_argument("--segmenter must be rawlog, onnx:<file> or none, not '" + seg + "'");
+    }
+  }
 
-    // ---- replay ----
-    const std::string camera_label =
-        settings.text("Rawlog.CameraLabel").value_or(rig.sensor == rvwo::estimator::Sensor::kRgbd ? "RGBD" : "CAMERA");
-    const std::string odometry_label = settings.text("Rawlog.OdometryLabel").value_or("ODOMETRY");
-    const std::string labels_label = settings.text("Rawlog.LabelsLabel").value_or("LABELS");
-    std::unique_ptr<rvwo::estimator::Estimator> estimator;
+  void makeBackend() {
+    camera_label_ = settings_->text("Rawlog.CameraLabel")
+                        .value_or(rig_.sensor == rvwo::estimator::Sensor::kRgbd ? "RGBD" : "CAMERA");
+    odometry_label_ = settings_->text("Rawlog.OdometryLabel").value_or("ODOMETRY");
+    labels_label_ = settings_->text("Rawlog.LabelsLabel").value_or("LABELS");
 #ifdef RVWO_WITH_ORBSLAM3
-    std::unique_ptr<OrbSlam3Backend> orbslam3;
-    if (use_orbslam3)
-      orbslam3 = std::make_unique<OrbSlam3Backend>(rig, opt, opt.mode == rvwo::estimator::Mode::kVw, settings,
-                                                   vocabulary_arg.getValue(), out_arg.getValue(), segmenter);
+    if (use_orbslam3_)
+      orbslam3_ =
+          std::make_unique<OrbSlam3Backend>(rig_, opt_, vw(), *settings_, req().vocabulary, req().out, segmenter_);
 #endif
-    if (!use_orbslam3) estimator = std::make_unique<rvwo::estimator::Estimator>(rig, opt, segmenter);
-    Prefetcher reader(rawlog_arg.getValue(), camera_label, odometry_label, rawlog_labels ? labels_label : "",
-                      opt.mode != rvwo::estimator::Mode::kWheel);
-    const bool tty = isatty(fileno(stderr)) && !quiet.getValue();
-    const auto t_start = std::chrono::steady_clock::now();
-    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
-    double first_t = NAN, last_t = NAN, last_progress = -1;
-    std::size_t frames = 0, odometry_count = 0, skipped = 0;
-    auto progress = [&](const rvwo::estimator::PoseEstimate& p) {
-      ++frames;
-      if (quiet.getValue()) return;
-      const double el = elapsed();
-      if (el - last_progress < (tty ? 0.5 : 10.0)) return;
-      last_progress = el;
-      std::fprintf(stderr, "%srvwo-replay: t = %.1f s, %zu frames, %.1f frames/s (%.1fx real time), pose %s%s",
-                   tty ? "\r" : "", p.timestamp - first_t, frames, frames / el, (p.timestamp - first_t) / el,
-                   p.visual ? "visual     " : (use_orbslam3 ? "lost       " : "wheels only"), tty ? "  " : "\n");
-    };
-    if (estimator) estimator->setFrameCallback(progress);
+    if (!use_orbslam3_) {
+      estimator_ = std::make_unique<rvwo::estimator::Estimator>(rig_, opt_, segmenter_);
+      estimator_->setFrameCallback([this](const rvwo::estimator::PoseEstimate& p) { progress(p); });
+    }
+  }
+
+  // The progress line: every 0.5 s on a terminal, every 10 s otherwise.
+  void progress(const rvwo::estimator::PoseEstimate& p) {
+    ++frames_;
+    if (req().quiet) return;
+    const double el = elapsed();
+    if (el - last_progress_ < (tty_ ? 0.5 : 10.0)) return;
+    last_progress_ = el;
+    std::fprintf(stderr, "%srvwo-replay: t = %.1f s, %zu frames, %.1f frames/s (%.1fx real time), pose %s%s",
+                 tty_ ? "\r" : "", p.timestamp - first_t_, frames_, frames_ / el, (p.timestamp - first_t_) / el,
+                 p.visual ? "visual     " : (use_orbslam3_ ? "lost       " : "wheels only"), tty_ ? "  " : "\n");
+  }
 #ifdef RVWO_WITH_ORBSLAM3
-    auto orbslam3_progress = [&](double t, bool tracked) {
+  std::function<void(double, bool)> orbslam3Progress() {
+    return [this](double t, bool tracked) {
       rvwo::estimator::PoseEstimate p;
       p.timestamp = t;
       p.visual = tracked;
       progress(p);
     };
+  }
 #endif
-    std::string first_skip;
-    auto skip = [&](const std::string& why) {
-      if (first_skip.empty()) first_skip = why;
-      ++skipped;
-      if (skipped <= 10) std::fprintf(stderr, "%srvwo-replay: skipped %s\n", tty ? "\n" : "", why.c_str());
-      if (skipped == 10) std::fprintf(stderr, "rvwo-replay: (further skips are counted, not shown)\n");
-    };
-    double q_left0 = NAN, q_right0 = NAN;
-    // A frame is held until the next record, so that its label image (written after it) is there
-    // when the estimator makes it a keyframe.
-    std::optional<FrameInput> held;
-    auto flush = [&] {
-      if (!held) return;
-      try {
+  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start_).count(); }
+
+  // A bad record: the first ten named on stderr, all counted.
+  void skip(const std::string& why) {
+    if (first_skip_.empty()) first_skip_ = why;
+    ++skipped_;
+    if (skipped_ <= 10) std::fprintf(stderr, "%srvwo-replay: skipped %s\n", tty_ ? "\n" : "", why.c_str());
+    if (skipped_ == 10) std::fprintf(stderr, "rvwo-replay: (further skips are counted, not shown)\n");
+  }
+
+  // The held frame to the backend. A frame is held until the next record, so that its label image
+  // (written after it) is there when the estimator makes it a keyframe.
+  void flush() {
+    if (!held_) return;
+    try {
 #ifdef RVWO_WITH_ORBSLAM3
-        if (orbslam3) orbslam3->addFrame(*held, opt.mode == rvwo::estimator::Mode::kVw, orbslam3_progress);
+      if (orbslam3_) orbslam3_->addFrame(*held_, vw(), orbslam3Progress());
 #endif
-        if (estimator) estimator->addFrame(*held);
-      } catch (const std::invalid_argument& ex) {
-        skip("frame at t = " + std::to_string(held->timestamp) + ": " + ex.what());
+      if (estimator_) estimator_->addFrame(*held_);
+    } catch (const std::invalid_argument& ex) {
+      skip("frame at t = " + std::to_string(held_->timestamp) + ": " + ex.what());
+    }
+    held_.reset();
+  }
+
+  // One odometry record, as the settings' Odometry.Input says it is to be read.
+  void addOdometry(const Odometry& o) {
+    if (odometry_input_ == "encoders") {
+      if (!o.has_encoders) throw std::invalid_argument("no encoder ticks (Odometry.Input is encoders)");
+      const double k = 2 * M_PI / ticks_per_rev_;
+      if (std::isnan(q_left0_)) {
+        q_left0_ = o.ticks_left;
+        q_right0_ = o.ticks_right;
       }
-      held.reset();
-    };
-    // --realtime: a record of time t goes in no sooner than (t - t_ref) / x after t_ref's. A time
-    // that is not after the last paced one (a bad record, skipped further on) does not move the
-    // pace, and a gap of over kMaxGap (a recording paused, or a corrupt time) is not waited for.
-    constexpr double kMaxGap = 1.0;  // s of data
-    double pace_ref = NAN, pace_last = NAN;
-    auto pace_wall = t_start;
-    auto pace = [&](double t) {
-      if (!(realtime > 0) || !std::isfinite(t)) return;
-      if (std::isnan(pace_ref) || t - pace_last > kMaxGap) {
-        pace_ref = pace_last = t;
-        pace_wall = std::chrono::steady_clock::now();
-        return;
+      const double ql = (o.ticks_left - q_left0_) * k, qr = (o.ticks_right - q_right0_) * k;
+#ifdef RVWO_WITH_ORBSLAM3
+      if (orbslam3_) orbslam3_->addWheels(rvwo::orbslam3::WheelReading::angles(o.t, ql, qr), orbslam3Progress());
+#endif
+      if (estimator_) estimator_->addWheelAngles(o.t, ql, qr);
+    } else if (odometry_input_ == "velocities") {
+      if (!o.has_velocities) throw std::invalid_argument("no velocities (Odometry.Input is velocities)");
+      const double b = opt_.drive.track;
+      const double wl = (o.v - o.omega * b / 2) / opt_.drive.radius_left,
+                   wr = (o.v + o.omega * b / 2) / opt_.drive.radius_right;
+#ifdef RVWO_WITH_ORBSLAM3
+      if (orbslam3_) orbslam3_->addWheels(rvwo::orbslam3::WheelReading::speeds(o.t, wl, wr), orbslam3Progress());
+#endif
+      if (estimator_) estimator_->addWheelSpeeds(o.t, wl, wr);
+    } else {
+#ifdef RVWO_WITH_ORBSLAM3
+      if (orbslam3_) {
+        orbslam3_->addWheels(
+            rvwo::orbslam3::WheelReading::pose(o.t, o.pose.translation().x(), o.pose.translation().y(), o.pose.angle()),
+            orbslam3Progress());
       }
-      if (!(t > pace_last)) return;
-      pace_last = t;
-      std::this_thread::sleep_until(pace_wall + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                    std::chrono::duration<double>((t - pace_ref) / realtime)));
-    };
+#endif
+      if (estimator_) estimator_->addOdometryPose(o.t, o.pose);
+    }
+  }
+
+  // Every record of the rawlog, in order, to the backend.
+  void replay() {
+    Prefetcher reader(req().rawlog, camera_label_, odometry_label_, rawlog_labels_ ? labels_label_ : "",
+                      opt_.mode != rvwo::estimator::Mode::kWheel);
+    tty_ = isatty(fileno(stderr)) && !req().quiet;
+    t_start_ = std::chrono::steady_clock::now();
+    Pacer pacer(realtime_, t_start_);
     while (auto e = reader.next()) {
       if (auto* l = std::get_if<Labels>(&*e)) {
-        if (rawlog_labels) rawlog_labels->add(l->t, l->image);
-        if (held && std::fabs(held->timestamp - l->t) < 1e-6) flush();
+        if (rawlog_labels_) rawlog_labels_->add(l->t, l->image);
+        if (held_ && std::fabs(held_->timestamp - l->t) < 1e-6) flush();
         continue;
       }
       flush();
       if (auto* f = std::get_if<FrameInput>(&*e)) {
-        pace(f->timestamp);
-        if (std::isnan(first_t)) first_t = f->timestamp;
-        last_t = f->timestamp;
-        held = std::move(*f);
+        pacer.wait(f->timestamp);
+        if (std::isnan(first_t_)) first_t_ = f->timestamp;
+        last_t_ = f->timestamp;
+        held_ = std::move(*f);
       } else if (auto* o = std::get_if<Odometry>(&*e)) {
-        ++odometry_count;
-        pace(o->t);
-        if (opt.mode == rvwo::estimator::Mode::kVo) continue;
+        ++odometry_count_;
+        pacer.wait(o->t);
+        if (opt_.mode == rvwo::estimator::Mode::kVo) continue;
         try {
-          if (odometry_input == "encoders") {
-            if (!o->has_encoders) throw std::invalid_argument("no encoder ticks (Odometry.Input is encoders)");
-            const double k = 2 * M_PI / ticks_per_rev;
-            if (std::isnan(q_left0)) {
-              q_left0 = o->ticks_left;
-              q_right0 = o->ticks_right;
-            }
-            const double ql = (o->ticks_left - q_left0) * k, qr = (o->ticks_right - q_right0) * k;
-#ifdef RVWO_WITH_ORBSLAM3
-            if (orbslam3) orbslam3->addWheels(rvwo::orbslam3::WheelReading::angles(o->t, ql, qr), orbslam3_progress);
-#endif
-            if (estimator) estimator->addWheelAngles(o->t, ql, qr);
-          } else if (odometry_input == "velocities") {
-            if (!o->has_velocities) throw std::invalid_argument("no velocities (Odometry.Input is velocities)");
-            const double b = opt.drive.track;
-            const double wl = (o->v - o->omega * b / 2) / opt.drive.radius_left,
-                         wr = (o->v + o->omega * b / 2) / opt.drive.radius_right;
-#ifdef RVWO_WITH_ORBSLAM3
-            if (orbslam3) orbslam3->addWheels(rvwo::orbslam3::WheelReading::speeds(o->t, wl, wr), orbslam3_progress);
-#endif
-            if (estimator) estimator->addWheelSpeeds(o->t, wl, wr);
-          } else {
-#ifdef RVWO_WITH_ORBSLAM3
-            if (orbslam3) {
-              orbslam3->addWheels(rvwo::orbslam3::WheelReading::pose(o->t, o->pose.translation().x(),
-                                                                     o->pose.translation().y(), o->pose.angle()),
-                                  orbslam3_progress);
-            }
-#endif
-            if (estimator) estimator->addOdometryPose(o->t, o->pose);
-          }
+          addOdometry(*o);
         } catch (const std::invalid_argument& ex) {
           skip("odometry at t = " + std::to_string(o->t) + ": " + ex.what());
         }
@@ -729,176 +824,192 @@ int main(int argc, char** argv) {
     }
     flush();
 #ifdef RVWO_WITH_ORBSLAM3
-    if (orbslam3) orbslam3->flush(orbslam3_progress);
+    if (orbslam3_) orbslam3_->flush(orbslam3Progress());
 #endif
-    const std::string read_error = reader.error();
-    rvwo::estimator::Report rep;
-    rvwo::apps::Trajectory est;
-    std::vector<bool> on_wheels;  // per pose of est: it followed the wheels
-    if (estimator) {
-      estimator->finish();
-      const auto poses = estimator->trajectory();
-      est = toTrajectory(poses);
-      for (const auto& p : poses) on_wheels.push_back(!p.visual && opt.mode != rvwo::estimator::Mode::kWheel);
-      rep = estimator->report();
+    read_error_ = reader.error();
+    records_ = reader.records();
+  }
+
+  // The backend's trajectory and report, and which poses followed the wheels alone.
+  void finish() {
+    if (estimator_) {
+      estimator_->finish();
+      const auto poses = estimator_->trajectory();
+      est_ = toTrajectory(poses);
+      for (const auto& p : poses) on_wheels_.push_back(!p.visual && opt_.mode != rvwo::estimator::Mode::kWheel);
+      rep_ = estimator_->report();
     }
 #ifdef RVWO_WITH_ORBSLAM3
-    if (orbslam3) {
-      est = orbslam3->finish(&rep);
-      for (const auto& p : est) {
-        on_wheels.push_back(std::any_of(rep.wheel_only_intervals.begin(), rep.wheel_only_intervals.end(),
-                                        [&](const auto& i) { return i.first <= p.t && p.t <= i.second; }));
+    if (orbslam3_) {
+      est_ = orbslam3_->finish(&rep_);
+      for (const auto& p : est_) {
+        on_wheels_.push_back(std::any_of(rep_.wheel_only_intervals.begin(), rep_.wheel_only_intervals.end(),
+                                         [&](const auto& i) { return i.first <= p.t && p.t <= i.second; }));
       }
     }
 #endif
-    const double wall = elapsed();
-    if (tty) std::fprintf(stderr, "\n");
+    wall_ = elapsed();
+    if (tty_) std::fprintf(stderr, "\n");
+  }
 
-    // ---- output ----
-    if (frames == 0 && !read_error.empty()) throw std::runtime_error(read_error);  // (not a rawlog, or cut short)
-    if (frames == 0 && reader.records() == 0)
-      throw std::runtime_error(rawlog_arg.getValue() + ": no records (an empty rawlog)");
-    if (frames == 0 && skipped > 0)
-      throw std::runtime_error(rawlog_arg.getValue() + ": no camera frame could be used (" + std::to_string(skipped) +
-                               " records skipped; the first: " + first_skip + ")");
-    if (frames == 0)
-      throw std::runtime_error(rawlog_arg.getValue() + ": no camera frames (sensor label '" + camera_label +
+  // No trajectory to write: one line saying what the rawlog lacked.
+  void checkWhatWasRead() const {
+    const std::string& rawlog = req().rawlog;
+    if (frames_ == 0 && !read_error_.empty()) throw std::runtime_error(read_error_);  // (not a rawlog, or cut short)
+    if (frames_ == 0 && records_ == 0) throw std::runtime_error(rawlog + ": no records (an empty rawlog)");
+    if (frames_ == 0 && skipped_ > 0)
+      throw std::runtime_error(rawlog + ": no camera frame could be used (" + std::to_string(skipped_) +
+                               " records skipped; the first: " + first_skip_ + ")");
+    if (frames_ == 0)
+      throw std::runtime_error(rawlog + ": no camera frames (sensor label '" + camera_label_ +
                                "'; Rawlog.CameraLabel names another)");
-    if (opt.mode != rvwo::estimator::Mode::kVo && odometry_count == 0)
-      throw std::runtime_error(rawlog_arg.getValue() + ": no odometry (sensor label '" + odometry_label +
+    if (opt_.mode != rvwo::estimator::Mode::kVo && odometry_count_ == 0)
+      throw std::runtime_error(rawlog + ": no odometry (sensor label '" + odometry_label_ +
                                "'): --mode vo runs without it");
-    if (rawlog_labels && !rawlog_labels->any() && seg == "rawlog")
-      throw std::runtime_error(rawlog_arg.getValue() + ": no label images (sensor label '" + labels_label + "')");
-    if (est.empty()) throw std::runtime_error("ORB-SLAM3 kept no pose (its log: the --out file with .orbslam3.log)");
-    rvwo::apps::writeTum(out_arg.getValue(), est);
-    const double seq_s = last_t - first_t;
-    if (use_orbslam3) {
-      std::printf(
-          "rvwo-replay: %s, ORB-SLAM3 (patched), %s\n", rawlog_arg.getValue().c_str(),
-          opt.mode == rvwo::estimator::Mode::kVw ? "with the wheels" : "without the wheels (upstream behaviour)");
+    if (rawlog_labels_ && !rawlog_labels_->any() && req().segmenter == "rawlog")
+      throw std::runtime_error(rawlog + ": no label images (sensor label '" + labels_label_ + "')");
+    if (est_.empty()) throw std::runtime_error("ORB-SLAM3 kept no pose (its log: the --out file with .orbslam3.log)");
+  }
+
+  // "what: count (t0-t1 s, ...)", at most eight stretches.
+  void stretches(const char* what, std::size_t count, const std::vector<std::pair<double, double>>& in) const {
+    std::printf("  %s: %zu", what, count);
+    for (std::size_t i = 0; i < in.size() && i < 8; ++i)
+      std::printf("%s%.2f-%.2f s", i ? ", " : " (", in[i].first - first_t_, in[i].second - first_t_);
+    if (in.size() > 8) std::printf(", ... %zu stretches", in.size());
+    std::printf("%s\n", in.empty() ? "" : ")");
+  }
+
+  // The report on stdout: what ran, what it saw, what it decided, how fast.
+  void report() const {
+    const double seq_s = last_t_ - first_t_;
+    const std::string& rawlog = req().rawlog;
+    if (use_orbslam3_) {
+      std::printf("rvwo-replay: %s, ORB-SLAM3 (patched), %s\n", rawlog.c_str(),
+                  vw() ? "with the wheels" : "without the wheels (upstream behaviour)");
       std::printf("  frames %zu over %.1f s, keyframes %zu, poses kept %zu, semantics %s, segmented keyframes %zu\n",
-                  rep.frames, seq_s, rep.keyframes, est.size(),
-                  opt.mode == rvwo::estimator::Mode::kVw ? seg_name.c_str() : "none (without the wheels)",
-                  rep.segmented_keyframes);
+                  rep_.frames, seq_s, rep_.keyframes, est_.size(),
+                  vw() ? seg_name_.c_str() : "none (without the wheels)", rep_.segmented_keyframes);
     } else {
-      std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog_arg.getValue().c_str(), mode.c_str(),
-                  kernel.c_str(), seg_name.c_str());
-    }
-    if (!use_orbslam3)
+      std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog.c_str(), req().mode.c_str(),
+                  req().kernel.c_str(), seg_name_.c_str());
       std::printf(
           "  frames %zu over %.1f s, keyframes %zu, map points made %zu (rejected by the kernel: %zu), segmented "
           "keyframes %zu\n",
-          rep.frames, seq_s, rep.keyframes, rep.map_points_created, rep.map_points_rejected, rep.segmented_keyframes);
-    if (rawlog_labels) {
-      const auto [failed, first] = rawlog_labels->failures();
+          rep_.frames, seq_s, rep_.keyframes, rep_.map_points_created, rep_.map_points_rejected,
+          rep_.segmented_keyframes);
+    }
+    if (rawlog_labels_) {
+      const auto [failed, first] = rawlog_labels_->failures();
       if (failed > 0)
         std::printf("  label images that could not be read: %zu (their keyframes went unlabelled; first: %s)\n", failed,
                     first.c_str());
     }
-    auto stretches = [&](const char* what, std::size_t count, const std::vector<std::pair<double, double>>& in) {
-      std::printf("  %s: %zu", what, count);
-      for (std::size_t i = 0; i < in.size() && i < 8; ++i)
-        std::printf("%s%.2f-%.2f s", i ? ", " : " (", in[i].first - first_t, in[i].second - first_t);
-      if (in.size() > 8) std::printf(", ... %zu stretches", in.size());
-      std::printf("%s\n", in.empty() ? "" : ")");
-    };
+    reportDecisions();
+    if (skipped_ > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped_);
+    // CPU as well as wall time: the wall time depends on what else the machine runs, the CPU says
+    // how much of it a second of data takes (on two cores, 2x real time needs at most 1 s of CPU a
+    // data second, and threads that keep both cores busy).
+    const double cpu = cpuSeconds();
+    std::printf("  speed: %.1f s of data in %.1f s: %.2fx real time, %.1f frames/s; ", seq_s, wall_, seq_s / wall_,
+                rep_.frames / wall_);
+    std::printf("CPU %.1f s (%.2f cores); peak memory %.0f MB\n", cpu, cpu / wall_, peakMemoryMb());
+    std::printf("  timings [ms]     mean     p95     max   count\n");
+    for (const auto& [stage, s] : rep_.timings) {
+      std::printf("  %-14s %7.2f %7.2f %7.1f %7zu\n", stage.c_str(), s.mean, s.p95, s.max, s.count);
+    }
+    std::printf("  trajectory: %s\n", req().out.c_str());
+  }
+
+  // The report's lines on the wheels: frames on them alone, slips, the calibration learnt.
+  void reportDecisions() const {
 #ifdef RVWO_WITH_ORBSLAM3
-    if (orbslam3)
-      stretches("frames ORB-SLAM3 did not track (lost, not initialised)", orbslam3->lostFrames(), orbslam3->lost());
+    if (orbslam3_)
+      stretches("frames ORB-SLAM3 did not track (lost, not initialised)", orbslam3_->lostFrames(), orbslam3_->lost());
 #endif
-    if (!use_orbslam3 || opt.mode == rvwo::estimator::Mode::kVw)
-      stretches("frames on wheels only", rep.wheel_only_frames, rep.wheel_only_intervals);
-    if (opt.mode == rvwo::estimator::Mode::kVw && use_orbslam3)
-      std::printf("  frames where vision overruled the wheels (a slip): %zu\n", rep.slip_frames);
-    if (opt.mode == rvwo::estimator::Mode::kVw && !use_orbslam3) {
+    if (!use_orbslam3_ || vw()) stretches("frames on wheels only", rep_.wheel_only_frames, rep_.wheel_only_intervals);
+    if (vw() && use_orbslam3_)
+      std::printf("  frames where vision overruled the wheels (a slip): %zu\n", rep_.slip_frames);
+    if (vw() && !use_orbslam3_) {
       std::printf(
           "  frames where vision overruled the wheels (a slip): %zu; wheel edges local BA found wrong: %zu; "
           "relocalised: %zu; placed by the landmarks the wheels explain: %zu\n",
-          rep.slip_frames, rep.wheel_edge_outliers, rep.relocalisations, rep.wheel_gated);
+          rep_.slip_frames, rep_.wheel_edge_outliers, rep_.relocalisations, rep_.wheel_gated);
     }
-    if (opt.mode == rvwo::estimator::Mode::kVw && opt.calibrate) {
-      const rvwo::WheelCalibration& c = rep.wheel_calibration;
+    if (vw() && opt_.calibrate) {
+      const rvwo::WheelCalibration& c = rep_.wheel_calibration;
       std::printf("  wheel calibration (estimated): distance x%.4f, turn x%.4f, curvature %+.4f rad/m\n", 1 + c.x(),
                   1 + c.y(), c.z());
     }
 #ifdef RVWO_WITH_ORBSLAM3
     // ORB-SLAM3 skips a local map while keyframes wait; fed faster than real time, few are solved.
-    if (orbslam3 && opt.mode == rvwo::estimator::Mode::kVw)
-      std::printf("  local maps on SE(2): %zu, of which %zu refined the wheel calibration%s\n", orbslam3->localMaps(),
-                  orbslam3->calibratedLocalMaps(),
-                  realtime > 0 ? "" : " (frames fed as fast as tracking goes; --realtime 1: as recorded)");
+    if (orbslam3_ && vw())
+      std::printf("  local maps on SE(2): %zu, of which %zu refined the wheel calibration%s\n", orbslam3_->localMaps(),
+                  orbslam3_->calibratedLocalMaps(),
+                  realtime_ > 0 ? "" : " (frames fed as fast as tracking goes; --realtime 1: as recorded)");
 #endif
-    if (skipped > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped);
-    // CPU as well as wall time: the wall time depends on what else the machine runs, the CPU says
-    // how much of it a second of data takes (on two cores, 2x real time needs at most 1 s of CPU a
-    // data second, and threads that keep both cores busy).
-    const double cpu = cpuSeconds();
-    std::printf("  speed: %.1f s of data in %.1f s: %.2fx real time, %.1f frames/s; ", seq_s, wall, seq_s / wall,
-                rep.frames / wall);
-    std::printf("CPU %.1f s (%.2f cores); peak memory %.0f MB\n", cpu, cpu / wall, peakMemoryMb());
-    std::printf("  timings [ms]     mean     p95     max   count\n");
-    for (const auto& [stage, s] : rep.timings) {
-      std::printf("  %-14s %7.2f %7.2f %7.1f %7zu\n", stage.c_str(), s.mean, s.p95, s.max, s.count);
-    }
-    std::printf("  trajectory: %s\n", out_arg.getValue().c_str());
+  }
 
-    std::string plot_path = plot_arg.getValue();
-    if (plot_path.empty()) plot_path = fs::path(out_arg.getValue()).replace_extension(".png").string();
+  // The ATE of a trajectory against the ground truth (frames paired by time), one report line;
+  // the pairs to pairs_out unless null.
+  rvwo::apps::AteResult reportAte(const rvwo::apps::Trajectory& gt, rvwo::apps::Alignment alignment,
+                                  const std::string& what, const rvwo::apps::Trajectory& traj,
+                                  std::vector<std::pair<std::size_t, std::size_t>>* pairs_out) const {
+    auto pairs = rvwo::apps::associate(gt, traj, 0.01);
+    if (pairs.size() < 3) throw std::runtime_error(req().gt + ": fewer than 3 poses match the frames' times");
+    auto a = rvwo::apps::ate(gt, traj, pairs, alignment);
+    const double path = rvwo::apps::pathLength(gt, pairs);
+    std::printf("  %s: rmse %.4f m = %.3f %% of the %.1f m path; mean %.4f, max %.4f m\n", what.c_str(), a.stats.rmse,
+                100 * a.stats.rmse / path, path, a.stats.mean, a.stats.max);
+    if (pairs_out) *pairs_out = std::move(pairs);
+    return a;
+  }
+
+  // The PNG: the trajectory from above (against the ground truth, aligned, when given) and the
+  // error over time; with --gt, the ATE lines of the report first.
+  void plot() const {
+    std::string plot_path = req().plot;
+    if (plot_path.empty()) plot_path = fs::path(req().out).replace_extension(".png").string();
     std::vector<Eigen::Vector2d> est_xy, gt_xy, wheel_xy, err_t;
-    std::unique_ptr<rvwo::apps::Plot> traj_plot, err_plot;
-    if (!gt_arg.getValue().empty()) {
-      const rvwo::apps::Trajectory gt = rvwo::apps::readTum(gt_arg.getValue());
-      const rvwo::apps::Alignment alignment = rvwo::apps::parseAlignment(align_arg.getValue());
-      // The ATE of a trajectory against the ground truth (frames paired by time), one report line;
-      // the pairs to pairs_out unless null.
-      const auto reportAte = [&](const std::string& what, const rvwo::apps::Trajectory& traj,
-                                 std::vector<std::pair<std::size_t, std::size_t>>* pairs_out) {
-        auto pairs = rvwo::apps::associate(gt, traj, 0.01);
-        if (pairs.size() < 3)
-          throw std::runtime_error(gt_arg.getValue() + ": fewer than 3 poses match the frames' times");
-        auto a = rvwo::apps::ate(gt, traj, pairs, alignment);
-        const double path = rvwo::apps::pathLength(gt, pairs);
-        std::printf("  %s: rmse %.4f m = %.3f %% of the %.1f m path; mean %.4f, max %.4f m\n", what.c_str(),
-                    a.stats.rmse, 100 * a.stats.rmse / path, path, a.stats.mean, a.stats.max);
-        if (pairs_out) *pairs_out = std::move(pairs);
-        return a;
-      };
+    if (!req().gt.empty()) {
+      const rvwo::apps::Trajectory gt = rvwo::apps::readTum(req().gt);
+      const rvwo::apps::Alignment alignment = rvwo::apps::parseAlignment(req().align);
       std::vector<std::pair<std::size_t, std::size_t>> pairs;
-      const auto a = reportAte("ATE (" + align_arg.getValue() + ")", est, &pairs);
-      const auto step = rvwo::apps::rpe(gt, est, pairs, 1, false);
+      const auto a = reportAte(gt, alignment, "ATE (" + req().align + ")", est_, &pairs);
+      const auto step = rvwo::apps::rpe(gt, est_, pairs, 1, false);
 #ifdef RVWO_WITH_ORBSLAM3
       // ORB-SLAM3 without the wheels loses frames (a blackout), and those of a map it started
       // afterwards and never merged are not in its saved trajectory (only its biggest map's are):
       // the ATE above says nothing of them. Over every frame, one without a pose at the last pose
       // kept, the figure is what its user had, comparable with a run that kept them all
       // (upstream, blackout: 2162 of 2698 frames kept, 0.0077 m over those, 0.87 m over all).
-      if (orbslam3 && est.size() < orbslam3->frameTimes().size()) {
-        reportAte("ATE over every frame (one without a pose at the last pose kept)",
-                  rvwo::apps::heldAtLastPose(est, orbslam3->frameTimes(), 1e-6), nullptr);
+      if (orbslam3_ && est_.size() < orbslam3_->frameTimes().size()) {
+        reportAte(gt, alignment, "ATE over every frame (one without a pose at the last pose kept)",
+                  rvwo::apps::heldAtLastPose(est_, orbslam3_->frameTimes(), 1e-6), nullptr);
       }
 #endif
       std::printf("  largest frame-to-frame error (RPE, 1 frame): %.4f m\n", step.stats.max);
       for (std::size_t k = 0; k < pairs.size(); ++k) {
         gt_xy.push_back(a.ref[k].head<2>());
         est_xy.push_back(a.est_aligned[k].head<2>());
-        if (on_wheels[pairs[k].second]) wheel_xy.push_back(a.est_aligned[k].head<2>());
-        err_t.emplace_back(a.t[k] - first_t, a.errors[k]);
+        if (on_wheels_[pairs[k].second]) wheel_xy.push_back(a.est_aligned[k].head<2>());
+        err_t.emplace_back(a.t[k] - first_t_, a.errors[k]);
       }
     } else {
-      for (std::size_t k = 0; k < est.size(); ++k) {
-        est_xy.push_back(est[k].T.translation().head<2>());
-        if (on_wheels[k]) wheel_xy.push_back(est_xy.back());
+      for (std::size_t k = 0; k < est_.size(); ++k) {
+        est_xy.push_back(est_[k].T.translation().head<2>());
+        if (on_wheels_[k]) wheel_xy.push_back(est_xy.back());
       }
     }
-    const std::string title = use_orbslam3 ? "rvwo-replay: ORB-SLAM3, " +
-                                                 std::string(opt.mode == rvwo::estimator::Mode::kVw ? "with" : "no") +
-                                                 " wheels (from above)"
-                                           : "rvwo-replay: " + mode + ", " + kernel + " (from above)";
-    traj_plot = std::make_unique<rvwo::apps::Plot>(title, "x [m]", "y [m]", true);
-    if (!gt_xy.empty()) traj_plot->add(gt_xy, mrpt::img::TColor(0, 0, 0), "ground truth");
-    traj_plot->add(est_xy, mrpt::img::TColor(0, 150, 60), "estimate" + std::string(gt_xy.empty() ? "" : " (aligned)"));
-    if (!wheel_xy.empty()) traj_plot->add(wheel_xy, mrpt::img::TColor(230, 120, 0), "wheels only", 0);
-    std::vector<const rvwo::apps::Plot*> panels{traj_plot.get()};
+    const std::string title =
+        use_orbslam3_ ? "rvwo-replay: ORB-SLAM3, " + std::string(vw() ? "with" : "no") + " wheels (from above)"
+                      : "rvwo-replay: " + req().mode + ", " + req().kernel + " (from above)";
+    rvwo::apps::Plot traj_plot(title, "x [m]", "y [m]", true);
+    if (!gt_xy.empty()) traj_plot.add(gt_xy, mrpt::img::TColor(0, 0, 0), "ground truth");
+    traj_plot.add(est_xy, mrpt::img::TColor(0, 150, 60), "estimate" + std::string(gt_xy.empty() ? "" : " (aligned)"));
+    if (!wheel_xy.empty()) traj_plot.add(wheel_xy, mrpt::img::TColor(230, 120, 0), "wheels only", 0);
+    std::vector<const rvwo::apps::Plot*> panels{&traj_plot};
+    std::unique_ptr<rvwo::apps::Plot> err_plot;
     if (!err_t.empty()) {
       err_plot = std::make_unique<rvwo::apps::Plot>("position error after alignment", "t [s]", "error [m]");
       err_plot->add(err_t, mrpt::img::TColor(200, 40, 40), "ATE");
@@ -906,12 +1017,39 @@ int main(int argc, char** argv) {
     }
     rvwo::apps::savePanels(plot_path, panels);
     std::printf("  plot: %s\n", plot_path.c_str());
-    if (!read_error.empty()) {
-      std::fprintf(stderr, "rvwo-replay: error: %s (the %zu frames before it are written to %s)\n", read_error.c_str(),
-                   rep.frames, out_arg.getValue().c_str());
-      return 1;
-    }
-    return 0;
+  }
+
+  std::optional<ReplayRequest> req_;
+  std::optional<rvwo::Settings> settings_;
+  rvwo::estimator::Rig rig_;
+  rvwo::estimator::EstimatorOptions opt_;
+  double realtime_ = 0, ticks_per_rev_ = 0;
+  std::string odometry_input_, seg_name_ = "none", camera_label_, odometry_label_, labels_label_;
+  bool use_orbslam3_ = false, tty_ = false;
+  std::shared_ptr<rvwo::Segmenter> segmenter_;
+  std::shared_ptr<RawlogLabels> rawlog_labels_;
+  std::unique_ptr<rvwo::estimator::Estimator> estimator_;
+#ifdef RVWO_WITH_ORBSLAM3
+  std::unique_ptr<OrbSlam3Backend> orbslam3_;
+#endif
+  // Replay state.
+  std::chrono::steady_clock::time_point t_start_ = std::chrono::steady_clock::now();
+  double first_t_ = NAN, last_t_ = NAN, last_progress_ = -1, wall_ = 0;
+  double q_left0_ = NAN, q_right0_ = NAN;  // the first encoder ticks: wheel angles count from them
+  std::size_t frames_ = 0, odometry_count_ = 0, skipped_ = 0, records_ = 0;
+  std::string first_skip_, read_error_;
+  std::optional<FrameInput> held_;
+  // What it produced.
+  rvwo::estimator::Report rep_;
+  rvwo::apps::Trajectory est_;
+  std::vector<bool> on_wheels_;  // per pose of est_: it followed the wheels
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return ReplayApp().run(argc, argv);
   } catch (const TCLAP::ArgException& e) {
     std::fprintf(stderr, "rvwo-replay: %s (%s)\n", e.error().c_str(), e.argId().c_str());
   } catch (const std::exception& e) {
