@@ -101,57 +101,88 @@ std::string matrix(const Eigen::Isometry3d& T) {
   return o.str();
 }
 
-}  // namespace
+// The command line, in the order --help lists it.
+struct SimArgs {
+  TCLAP::CmdLine cmd{
+      "rvwo-sim: renders a test sequence (textured room, wheeled robot, stereo / RGB-D / mono camera, wheel "
+      "odometry, walkers, slip, blackouts, low texture, illumination changes, floor bumps) into an MRPT rawlog with "
+      "settings and ground truth. The scenario format is in docs/simulator.md.",
+      ' ', "0.1"};
+  TCLAP::ValueArg<std::string> scenario{"", "scenario", "the scenario YAML", true, "", "S.yaml", cmd};
+  TCLAP::ValueArg<std::string> out{"",    "out", "output folder (created; existing outputs are replaced)", true, "",
+                                   "DIR", cmd};
+  TCLAP::ValueArg<unsigned> seed{"", "seed", "random seed: textures, walkers, noise (default 1)", false, 1, "N", cmd};
+  TCLAP::ValueArg<std::string> camera{
+      "", "camera", "override the scenario's camera: stereo, rgbd or mono", false, "", "kind", cmd};
+  TCLAP::ValueArg<double> duration{"",  "duration", "override the scenario's duration, s (e.g. a short test)", false, 0,
+                                   "s", cmd};
+  TCLAP::SwitchArg quiet{"", "quiet", "no progress line", cmd};
+};
 
-int main(int argc, char** argv) {
-  try {
-    TCLAP::CmdLine cmd(
-        "rvwo-sim: renders a test sequence (textured room, wheeled robot, stereo / RGB-D / mono camera, wheel "
-        "odometry, walkers, slip, blackouts, low texture, illumination changes, floor bumps) into an MRPT rawlog with "
-        "settings and ground truth. The scenario format is in docs/simulator.md.",
-        ' ', "0.1");
-    TCLAP::ValueArg<std::string> scenario_arg("", "scenario", "the scenario YAML", true, "", "S.yaml", cmd);
-    TCLAP::ValueArg<std::string> out_arg("", "out", "output folder (created; existing outputs are replaced)", true, "",
-                                         "DIR", cmd);
-    TCLAP::ValueArg<unsigned> seed_arg("", "seed", "random seed: textures, walkers, noise (default 1)", false, 1, "N",
-                                       cmd);
-    TCLAP::ValueArg<std::string> camera_arg("", "camera", "override the scenario's camera: stereo, rgbd or mono", false,
-                                            "", "kind", cmd);
-    TCLAP::ValueArg<double> duration_arg("", "duration", "override the scenario's duration, s (e.g. a short test)",
-                                         false, 0, "s", cmd);
-    TCLAP::SwitchArg quiet("", "quiet", "no progress line", cmd);
-    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
-    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+// The scenario file with the command line's overrides, checked again with them.
+rvwo::sim::Scenario scenarioOf(SimArgs& args) {
+  rvwo::sim::Scenario sc = rvwo::sim::loadScenario(args.scenario.getValue());
+  if (!args.camera.getValue().empty()) {
+    sc.camera = args.camera.getValue();
+    sc.text += "# rvwo-sim --camera " + sc.camera + "\n";
+  }
+  if (args.duration.isSet()) {
+    sc.duration = args.duration.getValue();
+    sc.text += "# rvwo-sim --duration " + std::to_string(sc.duration) + "\n";
+  }
+  // The overrides pass the scenario's own checks (e.g. --camera stereo on a fisheye scenario).
+  rvwo::sim::validateScenario(sc, args.scenario.getValue() + " with the command-line overrides");
+  return sc;
+}
 
-    const auto t_start = std::chrono::steady_clock::now();
-    const bool tty = isatty(fileno(stderr));
-    rvwo::sim::Scenario sc = rvwo::sim::loadScenario(scenario_arg.getValue());
-    if (!camera_arg.getValue().empty()) {
-      sc.camera = camera_arg.getValue();
-      sc.text += "# rvwo-sim --camera " + sc.camera + "\n";
-    }
-    if (duration_arg.isSet()) {
-      sc.duration = duration_arg.getValue();
-      sc.text += "# rvwo-sim --duration " + std::to_string(sc.duration) + "\n";
-    }
-    // The overrides pass the scenario's own checks (e.g. --camera stereo on a fisheye scenario).
-    rvwo::sim::validateScenario(sc, scenario_arg.getValue() + " with the command-line overrides");
-    const rvwo::sim::Motion motion(sc);
-    const unsigned seed = seed_arg.getValue();
-    const double duration = std::min(sc.duration, motion.duration());
-    const bool stereo = sc.camera == "stereo", rgbd = sc.camera == "rgbd";
-    const Rig rig(sc.lens == "fisheye");
+// One image to write: encoded with the frame's others, in parallel, at the frame's end.
+struct PendingImage {
+  cv::Mat image;
+  std::string path;
+};
 
-    // Room: as the scenario says, enlarged so that the path stays 1.5 m from the walls.
-    const Eigen::Vector2d extent = motion.max() - motion.min(), centre = 0.5 * (motion.max() + motion.min());
-    const double room_x = std::max(sc.room_x, extent.x() + 3), room_y = std::max(sc.room_y, extent.y() + 3);
-    rvwo::sim::Scene scene(room_x, room_y, sc.room_h, seed, sc.furniture);
-    const SE2 T_room_path(-centre, 0.0);  // the path centred in the room
-    std::mt19937_64 rng(seed * 31u + 7u);
+// rvwo-sim: the room and its walkers made (makeScene), odometry readings and camera frames written
+// in time order (simulate), then the ground truth and the settings (writeSettings).
+class SimApp {
+ public:
+  SimApp(const rvwo::sim::Scenario& sc, unsigned seed, const fs::path& dir, bool quiet)
+      : sc_(sc),
+        motion_(sc),
+        seed_(seed),
+        duration_(std::min(sc.duration, motion_.duration())),
+        stereo_(sc.camera == "stereo"),
+        rgbd_(sc.camera == "rgbd"),
+        rig_(sc.lens == "fisheye"),
+        quiet_(quiet),
+        tty_(isatty(fileno(stderr))),
+        dir_(dir),
+        rawlog_path_((dir / "sequence.rawlog").string()),
+        images_(rvwo::apps::RawlogWriter::imagesFolder(rawlog_path_)) {}
+
+  int run() {
+    makeScene();
+    prepareOutput();
+    simulate();
+    rvwo::apps::writeTum((dir_ / "groundtruth.txt").string(), gt_base_);
+    rvwo::apps::writeTum((dir_ / "groundtruth_camera.txt").string(), gt_cam_);
+    writeSettings();
+    report();
+    return 0;
+  }
+
+ private:
+  // Room: as the scenario says, enlarged so that the path stays 1.5 m from the walls; the path
+  // centred in it; walkers crossing it and escorts around the robot.
+  void makeScene() {
+    const Eigen::Vector2d extent = motion_.max() - motion_.min(), centre = 0.5 * (motion_.max() + motion_.min());
+    const double room_x = std::max(sc_.room_x, extent.x() + 3), room_y = std::max(sc_.room_y, extent.y() + 3);
+    scene_ = std::make_unique<rvwo::sim::Scene>(room_x, room_y, sc_.room_h, seed_, sc_.furniture);
+    T_room_path_ = SE2(-centre, 0.0);
+    std::mt19937_64 rng(seed_ * 31u + 7u);
     std::uniform_real_distribution<double> u(0, 1);
     const Eigen::Vector2d inner(room_x / 2 - 0.5, room_y / 2 - 0.5);  // 0.5 m from the walls
     auto insideRoom = [&](const Eigen::Vector2d& p) -> Eigen::Vector2d { return p.cwiseMax(-inner).cwiseMin(inner); };
-    for (int i = 0; i < sc.walkers; ++i) {
+    for (int i = 0; i < sc_.walkers; ++i) {
       // Walkers cross the room along random segments through its middle part.
       rvwo::sim::Walker w;
       const double a = 2 * M_PI * u(rng);
@@ -160,220 +191,240 @@ int main(int argc, char** argv) {
       const double half = 0.5 * std::min(room_x, room_y) - 1.0;
       w.a = insideRoom(c - half * dir);
       w.b = insideRoom(c + half * dir);
-      w.speed = sc.walker_speed * (0.7 + 0.6 * u(rng));
+      w.speed = sc_.walker_speed * (0.7 + 0.6 * u(rng));
       w.phase = 10 * u(rng);
-      scene.addWalker(w);
+      scene_->addWalker(w);
     }
-
-    for (int i = 0; i < sc.escorts; ++i) {
+    for (int i = 0; i < sc_.escorts; ++i) {
       rvwo::sim::Walker w;
       w.escort = true;
       w.ahead = 1.8 + 1.5 * u(rng);
       w.sweep = 1.0 + 1.0 * u(rng);
       w.period = 6 + 6 * u(rng);
       w.phase = 2 * M_PI * u(rng);
-      scene.addWalker(w);
+      scene_->addWalker(w);
     }
+  }
 
-    // Output folder.
-    const fs::path dir(out_arg.getValue());
-    fs::create_directories(dir);
-    const std::string rawlog_path = (dir / "sequence.rawlog").string();
-    const fs::path images = rvwo::apps::RawlogWriter::imagesFolder(rawlog_path);
-    fs::remove_all(images);
-    fs::create_directories(images);
-    std::ofstream(dir / "scenario.yaml") << sc.text;
-
+  // The output folder, its images folder emptied, the scenario as run; the camera's ray table.
+  void prepareOutput() {
+    fs::create_directories(dir_);
+    fs::remove_all(images_);
+    fs::create_directories(images_);
+    std::ofstream(dir_ / "scenario.yaml") << sc_.text;
     std::unique_ptr<rvwo::CameraModel> cam;
-    if (sc.lens == "fisheye") {
-      cam = std::make_unique<rvwo::KannalaBrandtCamera>(rig.fx, rig.fy, rig.cx, rig.cy, rig.k[0], rig.k[1], rig.k[2],
-                                                        rig.k[3]);
+    if (sc_.lens == "fisheye") {
+      cam = std::make_unique<rvwo::KannalaBrandtCamera>(rig_.fx, rig_.fy, rig_.cx, rig_.cy, rig_.k[0], rig_.k[1],
+                                                        rig_.k[2], rig_.k[3]);
     } else {
-      cam = std::make_unique<rvwo::PinholeCamera>(rig.fx, rig.fy, rig.cx, rig.cy);
+      cam = std::make_unique<rvwo::PinholeCamera>(rig_.fx, rig_.fy, rig_.cx, rig_.cy);
     }
-    const cv::Mat rays = rvwo::sim::Scene::rayTable(*cam, rig.width, rig.height);
-    mrpt::img::TCamera tcam;
-    tcam.ncols = rig.width;
-    tcam.nrows = rig.height;
-    tcam.setIntrinsicParamsFromValues(rig.fx, rig.fy, rig.cx, rig.cy);
+    rays_ = rvwo::sim::Scene::rayTable(*cam, rig_.width, rig_.height);
+    tcam_.ncols = rig_.width;
+    tcam_.nrows = rig_.height;
+    tcam_.setIntrinsicParamsFromValues(rig_.fx, rig_.fy, rig_.cx, rig_.cy);
+  }
 
-    const double radius = rvwo::sim::OdometrySimulator::kRadius, track = rvwo::sim::OdometrySimulator::kTrack;
+  // The body's pose at t: the motion on the floor, and the floor's bumps (small height, roll and
+  // pitch oscillations) in T_w_b.
+  SE2 bodyAt(double t, Eigen::Isometry3d* T_w_b) const {
+    const SE2 planar = T_room_path_ * motion_.at(rvwo::sim::motionTime(sc_, t));
+    double amp = 0, z = 0, roll = 0, pitch = 0;
+    if (inAny(sc_.bumps, t, &amp)) {
+      z = amp * std::sin(2 * M_PI * 3.1 * t);
+      roll = 2 * amp * std::sin(2 * M_PI * 2.3 * t + 1);
+      pitch = 2 * amp * std::sin(2 * M_PI * 1.7 * t + 2);
+    }
+    *T_w_b = pose3(planar, z, roll, pitch);
+    return planar;
+  }
 
-    rvwo::apps::RawlogWriter rawlog(rawlog_path);
-    rvwo::apps::Trajectory gt_base, gt_cam;
-    auto bodyAt = [&](double t, Eigen::Isometry3d* T_w_b) {
-      const SE2 planar = T_room_path * motion.at(rvwo::sim::motionTime(sc, t));
-      double amp = 0, z = 0, roll = 0, pitch = 0;
-      if (inAny(sc.bumps, t, &amp)) {  // floor bumps: small height, roll and pitch oscillations
-        z = amp * std::sin(2 * M_PI * 3.1 * t);
-        roll = 2 * amp * std::sin(2 * M_PI * 2.3 * t + 1);
-        pitch = 2 * amp * std::sin(2 * M_PI * 1.7 * t + 2);
-      }
-      *T_w_b = pose3(planar, z, roll, pitch);
-      return planar;
-    };
-
-    rvwo::sim::OdometrySimulator wheels(sc, motion, seed);
-    const double odo_dt = 1.0 / sc.odometry_rate, frame_dt = 1.0 / sc.fps;
-    const long n_odo = static_cast<long>(std::floor(duration / odo_dt + 1e-9));
-    const long n_frames = static_cast<long>(std::floor(duration / frame_dt + 1e-9));
-    long next_odo = 0, next_frame = 0, frames_written = 0;
-    std::size_t image_bytes = 0;
-    double render_s = 0, encode_s = 0;  // time spent rendering (and filling observations), writing images
-    while (next_odo <= n_odo || next_frame <= n_frames) {
+  // Odometry readings and camera frames, each written at its time, odometry first on a tie.
+  void simulate() {
+    rvwo::apps::RawlogWriter rawlog(rawlog_path_);
+    rvwo::sim::OdometrySimulator wheels(sc_, motion_, seed_);
+    const double odo_dt = 1.0 / sc_.odometry_rate, frame_dt = 1.0 / sc_.fps;
+    n_odo_ = static_cast<long>(std::floor(duration_ / odo_dt + 1e-9));
+    const long n_frames = static_cast<long>(std::floor(duration_ / frame_dt + 1e-9));
+    long next_odo = 0, next_frame = 0;
+    while (next_odo <= n_odo_ || next_frame <= n_frames) {
       const double t_odo = next_odo * odo_dt, t_frame = next_frame * frame_dt;
-      if (next_odo <= n_odo && (next_frame > n_frames || t_odo <= t_frame)) {
-        // ---- odometry reading at t_odo ----
-        const rvwo::sim::OdometryReading reading = next_odo > 0 ? wheels.step(t_odo) : rvwo::sim::OdometryReading();
-        mrpt::obs::CObservationOdometry o;
-        o.sensorLabel = "ODOMETRY";
-        o.timestamp = mrpt::Clock::fromDouble(t_odo);
-        o.odometry =
-            mrpt::poses::CPose2D(reading.pose.translation().x(), reading.pose.translation().y(), reading.pose.angle());
-        o.hasEncodersInfo = true;
-        o.encoderLeftTicks = static_cast<int32_t>(reading.ticks_left);
-        o.encoderRightTicks = static_cast<int32_t>(reading.ticks_right);
-        o.hasVelocities = true;
-        o.velocityLocal = mrpt::math::TTwist2D(reading.v, 0, reading.omega);
-        rawlog.write(o);
+      if (next_odo <= n_odo_ && (next_frame > n_frames || t_odo <= t_frame)) {
+        writeOdometry(next_odo > 0 ? wheels.step(t_odo) : rvwo::sim::OdometryReading(), t_odo, &rawlog);
         ++next_odo;
         continue;
       }
-      // ---- camera frame at t_frame ----
-      Eigen::Isometry3d T_w_b;
-      const SE2 planar = bodyAt(t_frame, &T_w_b);
-      const Eigen::Vector3d robot = planar.vector();
-      const Eigen::Isometry3d T_w_c = T_w_b * rig.T_b_c;
-      rvwo::sim::RenderOptions ro;
-      ro.blackout = inAny(sc.blackout, t_frame);
-      double contrast = 1;
-      if (inAny(sc.low_texture, t_frame, &contrast)) ro.contrast = contrast;
-      for (const auto& i : sc.illumination) {
-        if (t_frame >= i.t0) ro.gain = i.value;
-      }
-      ro.noise_seed = seed * 1000003u + static_cast<unsigned>(next_frame) * 2u;
-      ro.noise = sc.pixel_noise;
-      auto t_render = std::chrono::steady_clock::now();
-      const rvwo::sim::Render left = scene.render(T_w_c, rays, t_frame, ro, robot);
-      char name[64];
-      std::snprintf(name, sizeof name, "L_%06ld.png", next_frame);
-      std::vector<std::pair<cv::Mat, std::string>> to_write;  // encoded in parallel at the frame's end
-      auto save = [&](const cv::Mat& img, const char* file) { to_write.emplace_back(img, (images / file).string()); };
-      save(left.image, name);
-      const mrpt::Clock::time_point stamp = mrpt::Clock::fromDouble(t_frame);
-      if (stereo) {
-        const Eigen::Isometry3d& T_c_r = rig.T_c1_c2;
-        ro.noise_seed += 1;
-        const rvwo::sim::Render right = scene.render(T_w_c * T_c_r, rays, t_frame, ro, robot);
-        char rname[64];
-        std::snprintf(rname, sizeof rname, "R_%06ld.png", next_frame);
-        save(right.image, rname);
-        mrpt::obs::CObservationStereoImages o;
-        o.sensorLabel = "CAMERA";
-        o.timestamp = stamp;
-        o.imageLeft.setExternalStorage(name);
-        o.imageRight.setExternalStorage(rname);
-        o.hasImageRight = true;
-        o.leftCamera = o.rightCamera = tcam;
-        const Eigen::Quaterniond q_c_r(T_c_r.linear());
-        o.rightCameraPose =
-            mrpt::poses::CPose3DQuat(T_c_r.translation().x(), T_c_r.translation().y(), T_c_r.translation().z(),
-                                     mrpt::math::CQuaternionDouble(q_c_r.w(), q_c_r.x(), q_c_r.y(), q_c_r.z()));
-        rawlog.write(o);
-      } else if (rgbd) {
-        mrpt::obs::CObservation3DRangeScan o;
-        o.sensorLabel = "RGBD";
-        o.timestamp = stamp;
-        o.hasIntensityImage = true;
-        o.intensityImage.setExternalStorage(name);
-        o.hasRangeImage = true;
-        o.range_is_depth = true;
-        o.rangeUnits = 1e-3f;
-        o.rangeImage_setSize(rig.height, rig.width);
-        for (int r = 0; r < rig.height; ++r) {
-          for (int c = 0; c < rig.width; ++c) {
-            const float d = left.depth.at<float>(r, c);
-            o.rangeImage(r, c) = static_cast<uint16_t>(d > 0 && d < 10 ? std::lround(d * 1000) : 0);  // 10 m range
-          }
-        }
-        o.cameraParams = o.cameraParamsIntensity = tcam;
-        rawlog.write(o);
-      } else {
-        mrpt::obs::CObservationImage o;
-        o.sensorLabel = "CAMERA";
-        o.timestamp = stamp;
-        o.image.setExternalStorage(name);
-        o.cameraParams = tcam;
-        rawlog.write(o);
-      }
-      // Ground-truth labels of the (left) image.
-      std::snprintf(name, sizeof name, "S_%06ld.png", next_frame);
-      save(left.labels, name);
-      mrpt::obs::CObservationImage labels;
-      labels.sensorLabel = "LABELS";
-      labels.timestamp = stamp;
-      labels.image.setExternalStorage(name);
-      rawlog.write(labels);
-      const auto t_encode = std::chrono::steady_clock::now();
-      render_s += std::chrono::duration<double>(t_encode - t_render).count();
-      // The frame's images are encoded in parallel (overlapping them with the next frame's rendering
-      // was slower on two cores: the renderer's own split then waits on its slower half).
-      std::vector<char> ok(to_write.size(), 0);
-      cv::parallel_for_(cv::Range(0, static_cast<int>(to_write.size())), [&](const cv::Range& r) {
-        for (int i = r.start; i < r.end; ++i) {
-          // No compression level: OpenCV then filters every row by SUB at zlib's fastest level.
-          // Files 6 % larger than with libpng's adaptive filters (Paeth on most rows here), but a
-          // replay decodes them 18 % faster (2.2 ms instead of 2.7 for a 640x480 grey image) and
-          // they are written in half the time.
-          ok[i] = cv::imwrite(to_write[i].second, to_write[i].first,
-                              {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY});
-        }
-      });
-      for (std::size_t i = 0; i < to_write.size(); ++i) {
-        if (!ok[i]) throw std::runtime_error("cannot write " + to_write[i].second);
-        image_bytes += fs::file_size(to_write[i].second);
-      }
-      encode_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_encode).count();
-      gt_base.push_back({t_frame, T_w_b});
-      gt_cam.push_back({t_frame, T_w_c});
-      ++frames_written;
+      writeFrame(next_frame, t_frame, &rawlog);
       ++next_frame;
-      const long every = static_cast<long>(tty ? sc.fps : 10 * sc.fps);  // a line every 10 s when logged
-      if (!quiet.getValue() && (next_frame % every == 0 || next_frame > n_frames)) {
-        const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-        std::fprintf(stderr, "%srvwo-sim: %.1f / %.1f s simulated, %ld frames, %.1f frames/s%s", tty ? "\r" : "",
-                     t_frame, duration, frames_written, frames_written / el, tty ? "   " : "\n");
+      const long every = static_cast<long>(tty_ ? sc_.fps : 10 * sc_.fps);  // a line every 10 s when logged
+      if (!quiet_ && (next_frame % every == 0 || next_frame > n_frames)) {
+        std::fprintf(stderr, "%srvwo-sim: %.1f / %.1f s simulated, %ld frames, %.1f frames/s%s", tty_ ? "\r" : "",
+                     t_frame, duration_, frames_written_, frames_written_ / elapsed(), tty_ ? "   " : "\n");
       }
     }
-    if (!quiet.getValue() && tty) std::fprintf(stderr, "\n");
-    rvwo::apps::writeTum((dir / "groundtruth.txt").string(), gt_base);
-    rvwo::apps::writeTum((dir / "groundtruth_camera.txt").string(), gt_cam);
+    if (!quiet_ && tty_) std::fprintf(stderr, "\n");
+  }
 
-    // Settings, ORB-SLAM3 keys (docs/rawlog.md).
-    std::ofstream st(dir / "settings.yaml");
-    st << std::setprecision(12) << "%YAML:1.0\n# written by rvwo-sim for scenario '" << sc.name << "', seed " << seed
-       << "\n"
-       << "Camera.type: \"" << (sc.lens == "fisheye" ? "KannalaBrandt8" : "PinHole") << "\"\n"
-       << "Camera1.fx: " << rig.fx << "\nCamera1.fy: " << rig.fy << "\nCamera1.cx: " << rig.cx
-       << "\nCamera1.cy: " << rig.cy << "\n";
-    if (sc.lens == "fisheye") {
-      for (int i = 0; i < 4; ++i) st << "Camera1.k" << i + 1 << ": " << rig.k[i] << "\n";
-      if (stereo) {  // ORB-SLAM3's KannalaBrandt8 stereo: the second camera and where it is
-        st << "Camera2.fx: " << rig.fx << "\nCamera2.fy: " << rig.fy << "\nCamera2.cx: " << rig.cx
-           << "\nCamera2.cy: " << rig.cy << "\n";
-        for (int i = 0; i < 4; ++i) st << "Camera2.k" << i + 1 << ": " << rig.k[i] << "\n";
-        st << "Stereo.T_c1_c2: " << matrix(rig.T_c1_c2) << "\n";
+  static void writeOdometry(const rvwo::sim::OdometryReading& reading, double t, rvwo::apps::RawlogWriter* rawlog) {
+    mrpt::obs::CObservationOdometry o;
+    o.sensorLabel = "ODOMETRY";
+    o.timestamp = mrpt::Clock::fromDouble(t);
+    o.odometry =
+        mrpt::poses::CPose2D(reading.pose.translation().x(), reading.pose.translation().y(), reading.pose.angle());
+    o.hasEncodersInfo = true;
+    o.encoderLeftTicks = static_cast<int32_t>(reading.ticks_left);
+    o.encoderRightTicks = static_cast<int32_t>(reading.ticks_right);
+    o.hasVelocities = true;
+    o.velocityLocal = mrpt::math::TTwist2D(reading.v, 0, reading.omega);
+    rawlog->write(o);
+  }
+
+  // One camera frame: rendered, its observation and its label image written, its images encoded.
+  void writeFrame(long index, double t, rvwo::apps::RawlogWriter* rawlog) {
+    Eigen::Isometry3d T_w_b;
+    const SE2 planar = bodyAt(t, &T_w_b);
+    const Eigen::Vector3d robot = planar.vector();
+    const Eigen::Isometry3d T_w_c = T_w_b * rig_.T_b_c;
+    rvwo::sim::RenderOptions ro;
+    ro.blackout = inAny(sc_.blackout, t);
+    double contrast = 1;
+    if (inAny(sc_.low_texture, t, &contrast)) ro.contrast = contrast;
+    for (const auto& i : sc_.illumination) {
+      if (t >= i.t0) ro.gain = i.value;
+    }
+    ro.noise_seed = seed_ * 1000003u + static_cast<unsigned>(index) * 2u;
+    ro.noise = sc_.pixel_noise;
+    const auto t_render = std::chrono::steady_clock::now();
+    const rvwo::sim::Render left = scene_->render(T_w_c, rays_, t, ro, robot);
+    std::vector<PendingImage> to_write;
+    const std::string name = imageName("L", index);
+    to_write.push_back({left.image, (images_ / name).string()});
+    const mrpt::Clock::time_point stamp = mrpt::Clock::fromDouble(t);
+    if (stereo_) {
+      ro.noise_seed += 1;
+      const rvwo::sim::Render right = scene_->render(T_w_c * rig_.T_c1_c2, rays_, t, ro, robot);
+      const std::string rname = imageName("R", index);
+      to_write.push_back({right.image, (images_ / rname).string()});
+      rawlog->write(stereoObservation(stamp, name, rname));
+    } else if (rgbd_) {
+      rawlog->write(rgbdObservation(stamp, name, left.depth));
+    } else {
+      mrpt::obs::CObservationImage o;
+      o.sensorLabel = "CAMERA";
+      o.timestamp = stamp;
+      o.image.setExternalStorage(name);
+      o.cameraParams = tcam_;
+      rawlog->write(o);
+    }
+    // Ground-truth labels of the (left) image.
+    const std::string lname = imageName("S", index);
+    to_write.push_back({left.labels, (images_ / lname).string()});
+    mrpt::obs::CObservationImage labels;
+    labels.sensorLabel = "LABELS";
+    labels.timestamp = stamp;
+    labels.image.setExternalStorage(lname);
+    rawlog->write(labels);
+    const auto t_encode = std::chrono::steady_clock::now();
+    render_s_ += std::chrono::duration<double>(t_encode - t_render).count();
+    writeImages(to_write);
+    encode_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_encode).count();
+    gt_base_.push_back({t, T_w_b});
+    gt_cam_.push_back({t, T_w_c});
+    ++frames_written_;
+  }
+
+  static std::string imageName(const char* prefix, long index) {
+    char name[64];
+    std::snprintf(name, sizeof name, "%s_%06ld.png", prefix, index);
+    return name;
+  }
+
+  mrpt::obs::CObservationStereoImages stereoObservation(mrpt::Clock::time_point stamp, const std::string& left,
+                                                        const std::string& right) const {
+    const Eigen::Isometry3d& T_c_r = rig_.T_c1_c2;
+    mrpt::obs::CObservationStereoImages o;
+    o.sensorLabel = "CAMERA";
+    o.timestamp = stamp;
+    o.imageLeft.setExternalStorage(left);
+    o.imageRight.setExternalStorage(right);
+    o.hasImageRight = true;
+    o.leftCamera = o.rightCamera = tcam_;
+    const Eigen::Quaterniond q_c_r(T_c_r.linear());
+    o.rightCameraPose =
+        mrpt::poses::CPose3DQuat(T_c_r.translation().x(), T_c_r.translation().y(), T_c_r.translation().z(),
+                                 mrpt::math::CQuaternionDouble(q_c_r.w(), q_c_r.x(), q_c_r.y(), q_c_r.z()));
+    return o;
+  }
+
+  // The depth in millimetres (10 m range), the intensity image referenced by name.
+  mrpt::obs::CObservation3DRangeScan rgbdObservation(mrpt::Clock::time_point stamp, const std::string& name,
+                                                     const cv::Mat& depth) const {
+    mrpt::obs::CObservation3DRangeScan o;
+    o.sensorLabel = "RGBD";
+    o.timestamp = stamp;
+    o.hasIntensityImage = true;
+    o.intensityImage.setExternalStorage(name);
+    o.hasRangeImage = true;
+    o.range_is_depth = true;
+    o.rangeUnits = 1e-3f;
+    o.rangeImage_setSize(rig_.height, rig_.width);
+    for (int r = 0; r < rig_.height; ++r) {
+      for (int c = 0; c < rig_.width; ++c) {
+        const float d = depth.at<float>(r, c);
+        o.rangeImage(r, c) = static_cast<uint16_t>(d > 0 && d < 10 ? std::lround(d * 1000) : 0);
       }
     }
-    st << "Camera.width: " << rig.width << "\nCamera.height: " << rig.height << "\nCamera.fps: " << sc.fps << "\n"
-       << "Sensor: \"" << sc.camera << "\"\n";
-    if (stereo && sc.lens == "pinhole") st << "Stereo.b: " << rig.baseline << "\n";
-    if (rgbd) st << "RGBD.DepthMapFactor: 1000.0\n";
-    st << "Camera.T_b_c: " << matrix(rig.T_b_c) << "\n"
+    o.cameraParams = o.cameraParamsIntensity = tcam_;
+    return o;
+  }
+
+  // A frame's images, encoded in parallel (overlapping them with the next frame's rendering was
+  // slower on two cores: the renderer's own split then waits on its slower half).
+  void writeImages(const std::vector<PendingImage>& to_write) {
+    std::vector<char> ok(to_write.size(), 0);
+    cv::parallel_for_(cv::Range(0, static_cast<int>(to_write.size())), [&](const cv::Range& r) {
+      for (int i = r.start; i < r.end; ++i) {
+        // No compression level: OpenCV then filters every row by SUB at zlib's fastest level.
+        // Files 6 % larger than with libpng's adaptive filters (Paeth on most rows here), but a
+        // replay decodes them 18 % faster (2.2 ms instead of 2.7 for a 640x480 grey image) and
+        // they are written in half the time.
+        ok[i] = cv::imwrite(to_write[i].path, to_write[i].image,
+                            {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY});
+      }
+    });
+    for (std::size_t i = 0; i < to_write.size(); ++i) {
+      if (!ok[i]) throw std::runtime_error("cannot write " + to_write[i].path);
+      image_bytes_ += fs::file_size(to_write[i].path);
+    }
+  }
+
+  // Settings, ORB-SLAM3 keys (docs/rawlog.md).
+  void writeSettings() const {
+    const double radius = rvwo::sim::OdometrySimulator::kRadius, track = rvwo::sim::OdometrySimulator::kTrack;
+    std::ofstream st(dir_ / "settings.yaml");
+    st << std::setprecision(12) << "%YAML:1.0\n# written by rvwo-sim for scenario '" << sc_.name << "', seed " << seed_
+       << "\n"
+       << "Camera.type: \"" << (sc_.lens == "fisheye" ? "KannalaBrandt8" : "PinHole") << "\"\n"
+       << "Camera1.fx: " << rig_.fx << "\nCamera1.fy: " << rig_.fy << "\nCamera1.cx: " << rig_.cx
+       << "\nCamera1.cy: " << rig_.cy << "\n";
+    if (sc_.lens == "fisheye") {
+      for (int i = 0; i < 4; ++i) st << "Camera1.k" << i + 1 << ": " << rig_.k[i] << "\n";
+      if (stereo_) {  // ORB-SLAM3's KannalaBrandt8 stereo: the second camera and where it is
+        st << "Camera2.fx: " << rig_.fx << "\nCamera2.fy: " << rig_.fy << "\nCamera2.cx: " << rig_.cx
+           << "\nCamera2.cy: " << rig_.cy << "\n";
+        for (int i = 0; i < 4; ++i) st << "Camera2.k" << i + 1 << ": " << rig_.k[i] << "\n";
+        st << "Stereo.T_c1_c2: " << matrix(rig_.T_c1_c2) << "\n";
+      }
+    }
+    st << "Camera.width: " << rig_.width << "\nCamera.height: " << rig_.height << "\nCamera.fps: " << sc_.fps << "\n"
+       << "Sensor: \"" << sc_.camera << "\"\n";
+    if (stereo_ && sc_.lens == "pinhole") st << "Stereo.b: " << rig_.baseline << "\n";
+    if (rgbd_) st << "RGBD.DepthMapFactor: 1000.0\n";
+    st << "Camera.T_b_c: " << matrix(rig_.T_b_c) << "\n"
        << "Odometry.T_b_o: " << matrix(Eigen::Isometry3d::Identity()) << "\n"
        << "Odometry.WheelRadiusLeft: " << radius << "\nOdometry.WheelRadiusRight: " << radius
-       << "\nOdometry.Track: " << track << "\nOdometry.TicksPerRevolution: " << sc.ticks_per_revolution
-       << "\nOdometry.NoiseWheel: " << std::max(sc.wheel_noise, 1e-3) << "\n"
+       << "\nOdometry.Track: " << track << "\nOdometry.TicksPerRevolution: " << sc_.ticks_per_revolution
+       << "\nOdometry.NoiseWheel: " << std::max(sc_.wheel_noise, 1e-3) << "\n"
        << "Semantics.LabelSet: \"voc21\"\n";
     // The simulated robot never moves sideways (a real path is re-integrated from its forward
     // motion and turn): no skid. At the default (0.01 m/sqrt(m), for a robot whose skid is
@@ -381,19 +432,54 @@ int main(int argc, char** argv) {
     // suite's hairpin (static: 0.27-0.42 % of the path; 0.04-0.08 % told the truth). The noise
     // floors keep the wheel edges finite.
     st << "Odometry.NoiseY: 0\n";
-    if (!st) throw std::runtime_error("cannot write " + (dir / "settings.yaml").string());
+    if (!st) throw std::runtime_error("cannot write " + (dir_ / "settings.yaml").string());
+  }
 
-    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  void report() const {
+    const double el = elapsed();
     std::printf(
         "rvwo-sim: %s: %ld %s frames (%.0f s at %.0f Hz), %ld odometry readings at %.0f Hz, %d walkers; "
         "%.1f frames/s; %.1f MB in %s\n",
-        sc.name.c_str(), frames_written, sc.camera.c_str(), duration, sc.fps, n_odo + 1, sc.odometry_rate,
-        sc.walkers + sc.escorts, frames_written / el, (image_bytes + fs::file_size(rawlog_path)) / 1e6,
-        dir.string().c_str());
+        sc_.name.c_str(), frames_written_, sc_.camera.c_str(), duration_, sc_.fps, n_odo_ + 1, sc_.odometry_rate,
+        sc_.walkers + sc_.escorts, frames_written_ / el, (image_bytes_ + fs::file_size(rawlog_path_)) / 1e6,
+        dir_.string().c_str());
     std::printf("rvwo-sim: per frame %.1f ms rendering, %.1f ms writing images, %.1f ms the rest\n",
-                1e3 * render_s / frames_written, 1e3 * encode_s / frames_written,
-                1e3 * (el - render_s - encode_s) / frames_written);
-    return 0;
+                1e3 * render_s_ / frames_written_, 1e3 * encode_s_ / frames_written_,
+                1e3 * (el - render_s_ - encode_s_) / frames_written_);
+  }
+
+  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start_).count(); }
+
+  const std::chrono::steady_clock::time_point t_start_ = std::chrono::steady_clock::now();
+  const rvwo::sim::Scenario sc_;
+  const rvwo::sim::Motion motion_;
+  const unsigned seed_;
+  const double duration_;
+  const bool stereo_, rgbd_;
+  const Rig rig_;
+  const bool quiet_, tty_;
+  const fs::path dir_;
+  const std::string rawlog_path_;
+  const fs::path images_;
+  std::unique_ptr<rvwo::sim::Scene> scene_;
+  SE2 T_room_path_;
+  cv::Mat rays_;
+  mrpt::img::TCamera tcam_;
+  rvwo::apps::Trajectory gt_base_, gt_cam_;
+  long n_odo_ = 0, frames_written_ = 0;
+  std::size_t image_bytes_ = 0;
+  double render_s_ = 0, encode_s_ = 0;  // time spent rendering (and filling observations), writing images
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    SimArgs args;
+    if (const auto status = rvwo::apps::parseCommandLine(args.cmd, argc, argv)) return *status;
+    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+    const rvwo::sim::Scenario sc = scenarioOf(args);
+    return SimApp(sc, args.seed.getValue(), args.out.getValue(), args.quiet.getValue()).run();
   } catch (const TCLAP::ArgException& e) {
     std::fprintf(stderr, "rvwo-sim: %s (%s)\n", e.error().c_str(), e.argId().c_str());
   } catch (const std::exception& e) {
