@@ -149,126 +149,165 @@ const Entry* nearest(const std::vector<Entry>& list, double t, double max_dt) {
   return best && std::fabs(best->t - t) <= max_dt ? best : nullptr;
 }
 
+// The command line, in the order --help lists it.
+struct ConvertArgs {
+  TCLAP::CmdLine cmd{
+      "rvwo-convert: a TUM RGB-D, OpenLORIS-Scene or generic (images + odometry CSV) folder to an RVWO rawlog; "
+      "images are referenced in place, the ground truth copied beside the rawlog.",
+      ' ', "0.1"};
+  std::vector<std::string> kinds = {"tum", "openloris", "generic"};
+  TCLAP::ValuesConstraint<std::string> kinds_c{kinds};
+  TCLAP::UnlabeledValueArg<std::string> kind{"kind", "the folder's format", true, "", &kinds_c, cmd};
+  TCLAP::ValueArg<std::string> in{"", "in", "the dataset folder", true, "", "DIR", cmd};
+  TCLAP::ValueArg<std::string> out{"", "out", "the rawlog to write", true, "", "R.rawlog", cmd};
+  TCLAP::ValueArg<double> max_dt{"",  "max-dt", "largest image/depth timestamp gap paired, s (0.02)", false, 0.02,
+                                 "s", cmd};
+  TCLAP::SwitchArg fisheye{"", "fisheye", "openloris: the T265 fisheye pair instead of RGB-D", cmd};
+  TCLAP::ValueArg<double> depth_factor{"", "depth-factor", "generic: depth units per metre (1000)", false, 1000, "f",
+                                       cmd};
+};
+
+// A dataset's records, gathered in time order, then written as one rawlog.
+class Conversion {
+ public:
+  explicit Conversion(double max_dt) : max_dt_(max_dt) {}
+
+  void addRgbd(const std::vector<Entry>& rgb, const std::vector<Entry>& depth, double units) {
+    for (const Entry& e : rgb) {
+      const Entry* d = nearest(depth, e.t, max_dt_);
+      if (!d) continue;  // unpaired frames are skipped, as TUM's associate.py does
+      records_.emplace(e.t, [e, d = *d, units](rvwo::apps::RawlogWriter& w) { w.write(rgbd(e, d, units)); });
+      ++frames_;
+    }
+    if (frames_ == 0) throw std::runtime_error("no image pairs with depth within --max-dt");
+  }
+  void addMono(const std::vector<Entry>& left) {
+    for (const Entry& e : left) {
+      records_.emplace(e.t, [e](rvwo::apps::RawlogWriter& w) {
+        mrpt::obs::CObservationImage o;
+        o.sensorLabel = "CAMERA";
+        o.timestamp = mrpt::Clock::fromDouble(e.t);
+        o.image.setExternalStorage(e.path);
+        w.write(o);
+      });
+      ++frames_;
+    }
+  }
+  void addStereo(const std::vector<Entry>& left, const std::vector<Entry>& right) {
+    for (const Entry& e : left) {
+      const Entry* r = nearest(right, e.t, max_dt_);
+      if (!r) continue;
+      records_.emplace(e.t, [e, r = *r](rvwo::apps::RawlogWriter& w) {
+        mrpt::obs::CObservationStereoImages o;
+        o.sensorLabel = "CAMERA";
+        o.timestamp = mrpt::Clock::fromDouble(e.t);
+        o.imageLeft.setExternalStorage(e.path);
+        o.imageRight.setExternalStorage(r.path);
+        o.hasImageRight = true;
+        w.write(o);
+      });
+      ++frames_;
+    }
+  }
+  void addOdometry(const std::vector<Odometry>& odo) {
+    for (const Odometry& o : odo) {
+      records_.emplace(o.t, [o](rvwo::apps::RawlogWriter& w) {
+        mrpt::obs::CObservationOdometry obs;
+        obs.sensorLabel = "ODOMETRY";
+        obs.timestamp = mrpt::Clock::fromDouble(o.t);
+        obs.odometry = mrpt::poses::CPose2D(o.x, o.y, o.theta);
+        w.write(obs);
+      });
+      ++odometry_;
+    }
+  }
+  // The folder's groundtruth.txt, if it has one, goes beside the rawlog.
+  void groundTruthFrom(const fs::path& folder) {
+    if (fs::exists(folder / "groundtruth.txt")) ground_truth_ = (folder / "groundtruth.txt").string();
+  }
+
+  void write(const std::string& out, const fs::path& in) const {
+    fs::create_directories(fs::absolute(out).parent_path());
+    rvwo::apps::RawlogWriter writer(out);
+    for (auto& [t, write] : records_) write(writer);
+    if (!ground_truth_.empty()) {
+      // Checked and rewritten in full precision (TUM files repeat a timestamp now and then: skipped).
+      rvwo::apps::writeTum((fs::absolute(out).parent_path() / "groundtruth.txt").string(),
+                           rvwo::apps::readTum(ground_truth_, 0, /*lenient=*/true));
+    }
+    std::printf("rvwo-convert: %s: %zu frames, %zu odometry readings -> %s%s\n", in.string().c_str(), frames_,
+                odometry_, out.c_str(), ground_truth_.empty() ? "" : " (+ groundtruth.txt)");
+  }
+
+ private:
+  double max_dt_;
+  std::multimap<double, std::function<void(rvwo::apps::RawlogWriter&)>> records_;  // written in time order
+  std::size_t frames_ = 0, odometry_ = 0;
+  std::string ground_truth_;
+};
+
+// TUM RGB-D: rgb.txt, depth.txt (5000 units a metre), groundtruth.txt; no odometry.
+void readTumFolder(const fs::path& in, Conversion* c) {
+  const auto rgb = readList(in, "rgb.txt");  // in this order: errors name the first list first
+  const auto depth = readList(in, "depth.txt");
+  c->addRgbd(rgb, depth, 5000.0);
+  c->groundTruthFrom(in);
+}
+
+// OpenLORIS-Scene: color.txt and aligned_depth.txt (mm), or the fisheye pair; odom.txt.
+void readOpenLorisFolder(const fs::path& in, bool fisheye, Conversion* c) {
+  if (fisheye) {
+    const auto left = readList(in, "fisheye1.txt");
+    const auto right = readList(in, "fisheye2.txt");
+    c->addStereo(left, right);
+  } else {
+    const auto color = readList(in, "color.txt");
+    const auto depth = readList(in, "aligned_depth.txt");
+    c->addRgbd(color, depth, 1000.0);
+  }
+  c->addOdometry(readOdometry(in / "odom.txt", true));
+  c->groundTruthFrom(in);
+}
+
+// Generic: images.txt, and images_right.txt (stereo) or depth.txt (RGB-D); odometry.csv.
+void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
+  const auto left = readList(in, "images.txt");
+  const auto right = readList(in, "images_right.txt", false);
+  const auto depth = readList(in, "depth.txt", false);
+  if (!right.empty()) {
+    c->addStereo(left, right);
+  } else if (!depth.empty()) {
+    c->addRgbd(left, depth, depth_factor);
+  } else {
+    c->addMono(left);
+  }
+  c->addOdometry(readOdometry(in / "odometry.csv", false));
+  c->groundTruthFrom(in);
+}
+
+int convert(ConvertArgs& args) {
+  const fs::path in(args.in.getValue());
+  if (!fs::is_directory(in)) throw std::runtime_error(in.string() + ": folder not found");
+  Conversion c(args.max_dt.getValue());
+  if (args.kind.getValue() == "tum") {
+    readTumFolder(in, &c);
+  } else if (args.kind.getValue() == "openloris") {
+    readOpenLorisFolder(in, args.fisheye.getValue(), &c);
+  } else {
+    readGenericFolder(in, args.depth_factor.getValue(), &c);
+  }
+  c.write(args.out.getValue(), in);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   try {
-    TCLAP::CmdLine cmd(
-        "rvwo-convert: a TUM RGB-D, OpenLORIS-Scene or generic (images + odometry CSV) folder to an RVWO rawlog; "
-        "images are referenced in place, the ground truth copied beside the rawlog.",
-        ' ', "0.1");
-    std::vector<std::string> kinds = {"tum", "openloris", "generic"};
-    TCLAP::ValuesConstraint<std::string> kinds_c(kinds);
-    TCLAP::UnlabeledValueArg<std::string> kind("kind", "the folder's format", true, "", &kinds_c, cmd);
-    TCLAP::ValueArg<std::string> in_arg("", "in", "the dataset folder", true, "", "DIR", cmd);
-    TCLAP::ValueArg<std::string> out_arg("", "out", "the rawlog to write", true, "", "R.rawlog", cmd);
-    TCLAP::ValueArg<double> max_dt("", "max-dt", "largest image/depth timestamp gap paired, s (0.02)", false, 0.02, "s",
-                                   cmd);
-    TCLAP::SwitchArg fisheye("", "fisheye", "openloris: the T265 fisheye pair instead of RGB-D", cmd);
-    TCLAP::ValueArg<double> depth_factor("", "depth-factor", "generic: depth units per metre (1000)", false, 1000, "f",
-                                         cmd);
-    if (const auto status = rvwo::apps::parseCommandLine(cmd, argc, argv)) return *status;
+    ConvertArgs args;
+    if (const auto status = rvwo::apps::parseCommandLine(args.cmd, argc, argv)) return *status;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-
-    const fs::path in(in_arg.getValue());
-    if (!fs::is_directory(in)) throw std::runtime_error(in.string() + ": folder not found");
-    std::multimap<double, std::function<void(rvwo::apps::RawlogWriter&)>> records;  // written in time order
-    std::size_t frames = 0, odometry = 0;
-    std::string ground_truth;
-
-    auto addRgbd = [&](const std::vector<Entry>& rgb, const std::vector<Entry>& depth, double units) {
-      for (const Entry& e : rgb) {
-        const Entry* d = nearest(depth, e.t, max_dt.getValue());
-        if (!d) continue;  // unpaired frames are skipped, as TUM's associate.py does
-        records.emplace(e.t, [e, d = *d, units](rvwo::apps::RawlogWriter& w) { w.write(rgbd(e, d, units)); });
-        ++frames;
-      }
-      if (frames == 0) throw std::runtime_error("no image pairs with depth within --max-dt");
-    };
-    auto addMono = [&](const std::vector<Entry>& left) {
-      for (const Entry& e : left) {
-        records.emplace(e.t, [e](rvwo::apps::RawlogWriter& w) {
-          mrpt::obs::CObservationImage o;
-          o.sensorLabel = "CAMERA";
-          o.timestamp = mrpt::Clock::fromDouble(e.t);
-          o.image.setExternalStorage(e.path);
-          w.write(o);
-        });
-        ++frames;
-      }
-    };
-    auto addStereo = [&](const std::vector<Entry>& left, const std::vector<Entry>& right) {
-      for (const Entry& e : left) {
-        const Entry* r = nearest(right, e.t, max_dt.getValue());
-        if (!r) continue;
-        records.emplace(e.t, [e, r = *r](rvwo::apps::RawlogWriter& w) {
-          mrpt::obs::CObservationStereoImages o;
-          o.sensorLabel = "CAMERA";
-          o.timestamp = mrpt::Clock::fromDouble(e.t);
-          o.imageLeft.setExternalStorage(e.path);
-          o.imageRight.setExternalStorage(r.path);
-          o.hasImageRight = true;
-          w.write(o);
-        });
-        ++frames;
-      }
-    };
-    auto addOdometry = [&](const std::vector<Odometry>& odo) {
-      for (const Odometry& o : odo) {
-        records.emplace(o.t, [o](rvwo::apps::RawlogWriter& w) {
-          mrpt::obs::CObservationOdometry obs;
-          obs.sensorLabel = "ODOMETRY";
-          obs.timestamp = mrpt::Clock::fromDouble(o.t);
-          obs.odometry = mrpt::poses::CPose2D(o.x, o.y, o.theta);
-          w.write(obs);
-        });
-        ++odometry;
-      }
-    };
-
-    if (kind.getValue() == "tum") {
-      const auto rgb = readList(in, "rgb.txt");  // in this order: errors name the first list first
-      const auto depth = readList(in, "depth.txt");
-      addRgbd(rgb, depth, 5000.0);
-      if (fs::exists(in / "groundtruth.txt")) ground_truth = (in / "groundtruth.txt").string();
-    } else if (kind.getValue() == "openloris") {
-      if (fisheye.getValue()) {
-        const auto left = readList(in, "fisheye1.txt");
-        const auto right = readList(in, "fisheye2.txt");
-        addStereo(left, right);
-      } else {
-        const auto color = readList(in, "color.txt");
-        const auto depth = readList(in, "aligned_depth.txt");
-        addRgbd(color, depth, 1000.0);
-      }
-      addOdometry(readOdometry(in / "odom.txt", true));
-      if (fs::exists(in / "groundtruth.txt")) ground_truth = (in / "groundtruth.txt").string();
-    } else {
-      const auto left = readList(in, "images.txt");
-      const auto right = readList(in, "images_right.txt", false);
-      const auto depth = readList(in, "depth.txt", false);
-      if (!right.empty()) {
-        addStereo(left, right);
-      } else if (!depth.empty()) {
-        addRgbd(left, depth, depth_factor.getValue());
-      } else {
-        addMono(left);
-      }
-      addOdometry(readOdometry(in / "odometry.csv", false));
-      if (fs::exists(in / "groundtruth.txt")) ground_truth = (in / "groundtruth.txt").string();
-    }
-
-    fs::create_directories(fs::absolute(out_arg.getValue()).parent_path());
-    rvwo::apps::RawlogWriter writer(out_arg.getValue());
-    for (auto& [t, write] : records) write(writer);
-    if (!ground_truth.empty()) {
-      // Checked and rewritten in full precision (TUM files repeat a timestamp now and then: skipped).
-      rvwo::apps::writeTum((fs::absolute(out_arg.getValue()).parent_path() / "groundtruth.txt").string(),
-                           rvwo::apps::readTum(ground_truth, 0, /*lenient=*/true));
-    }
-    std::printf("rvwo-convert: %s: %zu frames, %zu odometry readings -> %s%s\n", in.string().c_str(), frames, odometry,
-                out_arg.getValue().c_str(), ground_truth.empty() ? "" : " (+ groundtruth.txt)");
-    return 0;
+    return convert(args);
   } catch (const TCLAP::ArgException& e) {
     std::fprintf(stderr, "rvwo-convert: %s (%s)\n", e.error().c_str(), e.argId().c_str());
   } catch (const std::exception& e) {
