@@ -7,7 +7,7 @@
 //   ATE: translation error of each pair after the alignment (evo_ape's default)
 //   RPE: translation error of the relative motion over a delta of frames or metres (evo_rpe)
 // It prints a report, and optionally writes it as JSON and a PNG of the trajectories seen from
-// above (x, y) with the ATE over time. The equivalent evo commands are in the README.
+// above (x, y) with the ATE over time. The equivalent evo commands are in docs/eval.md.
 #include <cstdio>
 #include <fstream>
 #include <iomanip>

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Every docs/... file that the code, the build and the scripts cite exists, and every
-# "docs/maths.md section N" they cite is a heading "## N." of that file. Run from the source root.
+# Every docs/... file that the code, the build and the scripts cite exists, every
+# "docs/maths.md section N" they cite is a heading "## N." of that file, and every
+# "docs/decisions/NNNN" a file docs/decisions/<NNNN>-<title>.md. Run from the source root.
 set -euo pipefail
 cd "${1:-.}"
 status=0
@@ -19,6 +20,13 @@ while IFS=: read -r file line n; do
     status=1
   fi
 done < <(grep -noE 'docs/maths\.md,? section [0-9]+' $sources | sed -E 's/docs\/maths\.md,? section //' || true)
+# shellcheck disable=SC2086
+while IFS=: read -r file line n; do
+  if ! compgen -G "docs/decisions/${n}-*.md" >/dev/null; then
+    echo "$file:$line: cites docs/decisions/$n, which has no file docs/decisions/$n-*.md"
+    status=1
+  fi
+done < <(grep -noE 'docs/decisions/[0-9]{4}' $sources | sed -E 's/:docs\/decisions\//:/' || true)
 # shellcheck disable=SC2086
 if grep -nq 'docs/maths\.md, "Slips"' $sources && ! grep -q '^## Slips$' docs/maths.md; then
   echo "docs/maths.md has no '## Slips' section, which kernels/include/rvwo/kernels/barron.h cites"

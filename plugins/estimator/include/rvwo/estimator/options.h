@@ -75,10 +75,7 @@ struct EstimatorOptions {
   // ---- features (Estimator.Features, .ScaleFactor, .Levels, .FastThreshold)
   int features = 1000;        // ORB keypoints per image, spread over a grid
   double scale_factor = 1.2;  // pyramid
-  // Six levels span a scale of 2.5, plenty for a ground robot's change of distance between
-  // keyframes; ORB-SLAM's eight (3.6) cost a quarter more CPU in a stereo replay for no accuracy
-  // (90 s suite, deterministic, 8 -> 6 levels: static 0.024 -> 0.030 %, dynamic 0.134 -> 0.128 %,
-  // slip 0.119 -> 0.088 % of the path).
+  // Six levels span a scale of 2.5, plenty for a ground robot (docs/decisions/0007).
   int levels = 6;
   int fast_threshold = 12;
   // ---- tracking
@@ -91,20 +88,14 @@ struct EstimatorOptions {
   double mono_min_parallax = 1.0;  // degrees between the two rays of a new point (Estimator.MonoMinParallax)
   // ---- slips (wheels spinning or skidding: vision alone overrules them, rvwo::decideSlip)
   // A slip starts only with this many times min_inliers trusted landmarks behind vision alone
-  // (Estimator.SlipMinInliers; threaded combined, 84.87 s: 14 of 127 matches trusted, the rest
-  // walkers, made a slip).
+  // (Estimator.SlipMinInliers; docs/decisions/0009).
   double slip_min_inliers = 2.0;
   // Blind frames this soon after a slip, in a blind stretch that began in it, hold the pose
-  // instead of following the wheels, s
-  // (Estimator.SlipHold): a walker passing close in front during a slip blinded tracking for
-  // 1.5 s, and the wheels, still spinning, took the pose 0.4 rad off (0.5 s of hold: 0.74 % of
-  // the path; 2 s: 0.11 %).
+  // instead of following the wheels, s (Estimator.SlipHold; docs/decisions/0009).
   double slip_hold = 2.0;
-  // ... if the slip lasted at least this many frames (Estimator.SlipHoldMinFrames): a real one goes
-  // on (the suite's slips: 16 to 30 slip frames a second), while a frame or two of vision alone
-  // winning, among walkers not yet labelled, is no slip to hold on (threaded combined, 84.9 s: two
-  // such frames, then a blackout held the pose through a turn, 27 deg off). Also what makes a spin
-  // (slipIsSpin frames) whose wheel edge sits out local BA's first round (stereo and RGB-D).
+  // ... if the slip lasted at least this many frames (Estimator.SlipHoldMinFrames): a real slip
+  // goes on, a frame or two of vision alone winning among walkers is no slip to hold on. Also
+  // what makes a spin whose wheel edge sits out local BA's first round (docs/decisions/0003).
   int slip_hold_min_frames = 3;
   // A landmark counts as static (trusted: it may place a frame and count in the slip test) while
   // its probability of moving P_s stays below this (Estimator.TrustedMaxPs): one person label
@@ -112,19 +103,8 @@ struct EstimatorOptions {
   double trusted_max_ps = 0.1;
   // The wheel gate (Estimator.WheelGate: 1 | 0; adaptive kernel, stereo and RGB-D): where the
   // fused pose strains the wheel edge and vision alone does not win (no slip), the pose is solved
-  // again from the wheels' prediction, its first round on the landmarks that prediction explains
-  // (if enough do to place a frame), its later rounds on any the new pose explains. Walkers no
-  // label marks (a network that misses them, or no semantics) otherwise drag the fused pose 5-9 mm
-  // and 5-8 mrad a frame off the wheels, each frame's edge starting where the last was dragged:
-  // dynamic seed 1 without labels lost 160 mrad of heading in 4 s. Deterministic, no labels:
-  // stereo 0.454 -> 0.088 % of the path, RGB-D 0.680 -> 0.216 %; 30 s cuts, seeds 1-5: 0.58 ->
-  // 0.69, 0.48 -> 0.46, 0.40 -> 0.06, 0.50 -> 0.32, 0.14 -> 0.09 %. With labels it rarely acts
-  // (their walkers do not place frames): the suite unchanged or better. Not mono: its vision
-  // along the optical axis and over bumps strains the edge where the wheels are the ones off
-  // (mono dynamic without labels 0.025 -> 0.053 %, combined 0.169 -> 0.245 %). The reliability
-  // model's geometric half, as the labels are its semantic half: Huber and a fixed alpha know of
-  // neither (Huber with a first form of it, solving on the landmarks the wheels explain alone:
-  // dynamic seed 1 0.0090 -> 0.0067 m).
+  // again from the wheels' prediction (rvwo::solveFromTheWheels). Walkers no label marks
+  // otherwise drag the fused pose a little every frame (docs/decisions/0002).
   bool wheel_gate = true;
   // ---- keyframes and local mapping
   int keyframe_max_frames = 15;  // a keyframe at least this often (frames) while tracking
@@ -133,31 +113,22 @@ struct EstimatorOptions {
   int keep_keyframes = 14;       // keyframes kept in memory (window + fixed neighbours)
   // Mono, threaded: tracking waits for local mapping once the keyframe it has not finished is
   // this many seconds of data old (Estimator.MonoMaxMappingLag; 0: tracking never runs past an
-  // unmapped keyframe's next frame). On the robot local BA lags a few frames (81 ms mean, 0.2 s
-  // p95 at --realtime 1); a replay at full speed, tracking at 7x real time, ran a whole keyframe
-  // interval or more on triangulated points local BA had not refined, and in a turn they turned
-  // the pose (threaded mono lowtexture, 36-40 s: 11 runs 0.05-1.96 % of the path, six over 0.45 %;
-  // with 0.25 s, 8 runs 0.04-0.08 %, at 6.0-6.5x real time instead of 7.3x). Stereo and RGB-D
-  // points have measured depth; with the wait, threaded stereo static gave adaptive 0.0094 and
-  // Huber 0.0066 m (means of 5 runs) against 0.0078 and 0.0101 m without (4 runs): within the
-  // threaded spread, but the kernels' ratio the wrong way, so they do not wait.
+  // unmapped keyframe's next frame). Stereo and RGB-D do not wait (docs/decisions/0005).
   double mono_max_mapping_lag = 0.25;
   // ---- noise
   double sigma_px = 1.0;  // keypoint noise at level 0, px
   OutOfPlaneNoise out_of_plane{0.01,
                                Eigen::Matrix2d::Identity() * 1e-4};  // m, rad^2 (Estimator.SigmaZ, .SigmaRollPitch)
   // Barron's scale c in whitened units, as a multiple of the chi2 gate's square root (Huber's
-  // delta is the root itself) (Estimator.BarronScale). 2: at alpha = 1 (a reliable landmark) an
-  // edge at the gate keeps weight (1 + 1/4)^-1/2 = 0.89, close to Huber's 1; with c at the gate
-  // itself (0.71 there) every inlier lost weight against the wheel edges, and the static
-  // scenario's error grew by 17 % over Huber's (measured); with 2 it is within 2 %.
+  // delta is the root itself) (Estimator.BarronScale): at alpha = 1 an edge at the gate keeps
+  // weight 0.89, close to Huber's 1 (docs/decisions/0008).
   double barron_scale = 2.0;
   WheelNoise wheel_noise;
   DiffDriveParams drive;
   // ---- the odometry's calibration c (rvwo/edges/wheel_preintegration.h), refined by local BA in
   // vw (Odometry.Calibrate: 1 | 0): a prior around zero (counted in the first BA, then a bound at
   // 3 sigma), and one around the last estimate in every BA: how far one BA may move it, a random
-  // walk in time (ceres_adapters::wheelCalibrationStep).
+  // walk in time (ceres_adapters::wheelCalibrationStep; docs/decisions/0001).
   bool calibrate = true;
   Eigen::Vector3d calibration_sigma{0.05, 0.05, 0.2};     // distance scale, turn scale, curvature (rad/m)
   Eigen::Vector3d calibration_step{0.003, 0.003, 0.005};  // the same, per local BA calibration_period after the last
