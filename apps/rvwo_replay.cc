@@ -31,27 +31,16 @@
 // skipped with a line on stderr; a truncated or corrupt rawlog stops the replay there: what was
 // estimated so far is written, and the exit status is 1.
 #include <glog/logging.h>
-#include <mrpt/obs/CObservation3DRangeScan.h>
-#include <mrpt/obs/CObservationImage.h>
-#include <mrpt/obs/CObservationOdometry.h>
-#include <mrpt/obs/CObservationStereoImages.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
-#include <csignal>
 #include <cstdio>
-#include <cstring>
-#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <map>
-#include <mutex>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <thread>
 #include <variant>
@@ -59,204 +48,17 @@
 #include "rvwo/estimator/estimator.h"
 #include "support/command_line.h"
 #ifdef RVWO_WITH_ORBSLAM3
-#include "rvwo/orbslam3/runner.h"
+#include "replay/orbslam3_backend.h"
 #endif
+#include "replay/input.h"
 #include "rvwo/semantics/onnx_segmenter.h"
 #include "support/plot.h"
-#include "support/rawlog.h"
 #include "support/trajectory.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using rvwo::estimator::FrameInput;
-
-using rvwo::apps::loadImage;
-
-// Label images that came in the rawlog (sensor LABELS), served by timestamp: the simulator's
-// ground truth or a dataset's masks, through the same Segmenter interface as a network. Decoded
-// only when a keyframe asks (one frame in ten or so: decoding every one cost a fifth of a replay's
-// time).
-class RawlogLabels final : public rvwo::Segmenter {
- public:
-  explicit RawlogLabels(std::vector<std::string> classes) : classes_(std::move(classes)) {}
-  void add(double t, mrpt::img::CImage labels) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    labels_[t] = std::move(labels);
-    while (labels_.size() > 90) labels_.erase(labels_.begin());  // 3 s at 30 Hz: a keyframe asks at once
-  }
-  bool any() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return !labels_.empty();
-  }
-  rvwo::Segmentation segment(const cv::Mat&, const rvwo::FrameInfo& info) override {
-    std::unique_lock<std::mutex> lock(mutex_);
-    auto it = labels_.lower_bound(info.timestamp - 1e-4);
-    if (it == labels_.end() || std::fabs(it->first - info.timestamp) > 1e-4)
-      throw std::runtime_error("no label image at t = " + std::to_string(info.timestamp));
-    const mrpt::img::CImage image = it->second;
-    lock.unlock();
-    rvwo::Segmentation s;
-    try {
-      loadImage(image, cv::IMREAD_UNCHANGED).convertTo(s.labels, CV_32S);
-    } catch (const std::exception& e) {
-      std::lock_guard<std::mutex> elock(mutex_);
-      if (failures_++ == 0) first_failure_ = e.what();
-      throw;
-    }
-    return s;
-  }
-  const std::vector<std::string>& classNames() const override { return classes_; }
-  // Label images that could not be decoded, and the first one's error.
-  std::pair<std::size_t, std::string> failures() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return {failures_, first_failure_};
-  }
-
- private:
-  std::vector<std::string> classes_;
-  mutable std::mutex mutex_;
-  std::map<double, mrpt::img::CImage> labels_;
-  std::size_t failures_ = 0;
-  std::string first_failure_;
-};
-
-// What the reader thread hands over, in rawlog order.
-struct Odometry {
-  double t;
-  rvwo::SE2 pose;
-  bool has_encoders, has_velocities;
-  double ticks_left, ticks_right, v, omega;
-};
-struct Labels {
-  double t;
-  mrpt::img::CImage image;  // not decoded yet (a path, when stored outside the rawlog)
-};
-struct Skip {
-  std::string why;
-};
-using Event = std::variant<FrameInput, Odometry, Labels, Skip>;
-
-// Reads and decodes ahead of the estimator in a thread of its own (bounded: a few frames).
-class Prefetcher {
- public:
-  Prefetcher(const std::string& path, std::string camera_label, std::string odometry_label, std::string labels_label,
-             bool want_images)
-      : reader_(path),
-        camera_(std::move(camera_label)),
-        odometry_(std::move(odometry_label)),
-        labels_(std::move(labels_label)),
-        want_images_(want_images) {
-    thread_ = std::thread([this] { run(); });
-  }
-  ~Prefetcher() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    cv_.notify_all();
-    thread_.join();
-  }
-  // The next event, or nullopt at the end (error() then says whether the file ended badly).
-  std::optional<Event> next() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    cv_.wait(lock, [&] { return !queue_.empty() || done_; });
-    if (queue_.empty()) return std::nullopt;
-    Event e = std::move(queue_.front());
-    queue_.pop_front();
-    cv_.notify_all();
-    return e;
-  }
-  std::string error() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return error_;
-  }
-  // Records read (after the reading thread is done).
-  std::size_t records() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return done_ ? reader_.count() : 0;
-  }
-
- private:
-  void push(Event e) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    cv_.wait(lock, [&] { return queue_.size() < 64 || stop_; });
-    queue_.push_back(std::move(e));
-    cv_.notify_all();
-  }
-  void run() {
-    try {
-      for (;;) {
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          if (stop_) break;
-        }
-        auto o = reader_.next();
-        if (!o) break;
-        const auto& obs = *o;
-        const double t = mrpt::Clock::toDouble(obs->timestamp);
-        const std::string where = "record " + std::to_string(reader_.count() - 1) + " (t = " + std::to_string(t) + ")";
-        try {
-          if (obs->sensorLabel == odometry_) {
-            auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(obs);
-            if (!od) throw std::runtime_error("sensor " + odometry_ + " is not a CObservationOdometry");
-            push(Odometry{t, rvwo::SE2(od->odometry.x(), od->odometry.y(), od->odometry.phi()), od->hasEncodersInfo,
-                          od->hasVelocities, double(od->encoderLeftTicks), double(od->encoderRightTicks),
-                          od->velocityLocal.vx, od->velocityLocal.omega});
-          } else if (obs->sensorLabel == camera_) {
-            FrameInput f;
-            f.timestamp = t;
-            if (want_images_) {
-              if (auto st = std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(obs)) {
-                f.image = loadImage(st->imageLeft, cv::IMREAD_GRAYSCALE);
-                if (st->hasImageRight) f.right = loadImage(st->imageRight, cv::IMREAD_GRAYSCALE);
-              } else if (auto rgbd = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(obs)) {
-                if (rgbd->hasIntensityImage) f.image = loadImage(rgbd->intensityImage, cv::IMREAD_GRAYSCALE);
-                if (rgbd->hasRangeImage) {
-                  rgbd->load();  // external range images
-                  cv::Mat depth(rgbd->rangeImage.rows(), rgbd->rangeImage.cols(), CV_32F);
-                  for (int r = 0; r < depth.rows; ++r) {
-                    for (int c = 0; c < depth.cols; ++c)
-                      depth.at<float>(r, c) = rgbd->rangeImage(r, c) * rgbd->rangeUnits;
-                  }
-                  f.depth = depth;  // metres: the estimator's depth factor is set to 1 for rawlogs
-                }
-              } else if (auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs)) {
-                f.image = loadImage(im->image, cv::IMREAD_GRAYSCALE);
-              } else {
-                throw std::runtime_error("sensor " + camera_ + " is not a camera observation");
-              }
-            }
-            push(std::move(f));
-          } else if (obs->sensorLabel == labels_) {
-            auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
-            if (!im) throw std::runtime_error("sensor " + labels_ + " is not a CObservationImage");
-            rvwo::apps::requireImageFile(im->image);
-            push(Labels{t, im->image});
-          }
-        } catch (const std::exception& e) {
-          push(Skip{where + ": " + e.what()});
-        }
-      }
-    } catch (const std::exception& e) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      error_ = e.what();
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    done_ = true;
-    cv_.notify_all();
-  }
-
-  rvwo::apps::RawlogReader reader_;
-  const std::string camera_, odometry_, labels_;
-  const bool want_images_;
-  std::thread thread_;
-  mutable std::mutex mutex_;
-  std::condition_variable cv_;
-  std::deque<Event> queue_;
-  bool stop_ = false, done_ = false;
-  std::string error_;
-};
 
 double peakMemoryMb() {
   std::ifstream in("/proc/self/status");
@@ -282,171 +84,6 @@ rvwo::apps::Trajectory toTrajectory(const std::vector<rvwo::estimator::PoseEstim
   for (const auto& p : poses) out.push_back({p.timestamp, p.T_w_b.isometry3()});
   return out;
 }
-
-#ifdef RVWO_WITH_ORBSLAM3
-// ORB-SLAM3 aborts on some failures (Sophus's checks, e.g. "SO3::exp failed" on a NaN pose):
-// one line saying so instead of a bare "Aborted".
-char g_abort_message[1024];
-extern "C" void orbslam3Aborted(int) {
-  const ssize_t n = ::write(STDERR_FILENO, g_abort_message, std::strlen(g_abort_message));
-  (void)n;
-  std::_Exit(1);
-}
-
-// --backend orbslam3: ORB-SLAM3 (patched) fed like the estimator, its report in the same terms.
-class OrbSlam3Backend {
- public:
-  // settings: the sequence's, whose Odometry.Noise*, Odometry.Calibrate*, Reliability.*, Semantics.*,
-  // Tracking.SlipCheck, Initializer.*, LocalMapping.*, LoopClosing.* and ORBextractor.AlignedPyramid
-  // keys go on to ORB-SLAM3 (and Estimator.LabelDilation as Segmentation.LabelDilation).
-  // segmenter: the keyframes' (with the wheels; none: reliabilities from reprojection errors alone).
-  OrbSlam3Backend(const rvwo::estimator::Rig& rig, const rvwo::estimator::EstimatorOptions& opt, bool wheels,
-                  const rvwo::Settings& settings, const std::string& vocabulary, const std::string& out,
-                  const std::shared_ptr<rvwo::Segmenter>& segmenter)
-      : T_b_c_(rig.T_b_c) {
-    using Sensor = rvwo::orbslam3::RunnerOptions::Sensor;
-    if (rig.rectification) throw std::invalid_argument("--backend orbslam3 takes pinhole cameras (not fisheye)");
-    rvwo::orbslam3::RunnerOptions o;
-    o.sensor = rig.sensor == rvwo::estimator::Sensor::kStereo ? Sensor::kStereo
-               : rig.sensor == rvwo::estimator::Sensor::kRgbd ? Sensor::kRgbd
-                                                              : Sensor::kMono;
-    o.vocabulary = vocabulary;
-    o.settings = fs::path(out).replace_extension(".orbslam3.yaml").string();
-    o.log = fs::path(out).replace_extension(".orbslam3.log").string();
-    rvwo::orbslam3::OrbSlam3Camera c;
-    c.fx = rig.camera->fx();
-    c.fy = rig.camera->fy();
-    c.cx = rig.camera->cx();
-    c.cy = rig.camera->cy();
-    c.width = rig.width;
-    c.height = rig.height;
-    c.fps = rig.fps;
-    c.baseline = rig.baseline;
-    rvwo::orbslam3::OrbSlam3Features f;
-    f.features = opt.features;
-    f.scale_factor = opt.scale_factor;
-    rvwo::orbslam3::WheelInputParams w;
-    w.T_b_c = rig.T_b_c;
-    w.T_b_o = rig.T_b_o.isometry3();
-    w.radius_left = opt.drive.radius_left;
-    w.radius_right = opt.drive.radius_right;
-    w.track = opt.drive.track;
-    w.huber = opt.kernel == rvwo::estimator::KernelChoice::kHuber;
-    w.barron_scale = opt.barron_scale;
-    w.sigma_z = opt.out_of_plane.sigma_z;
-    w.sigma_rollpitch = std::sqrt(opt.out_of_plane.sigma_rollpitch(0, 0));
-    if (const auto v = settings.number("Tracking.SlipCheck")) w.slip_check = *v != 0;
-    w.wheel_gate = opt.wheel_gate;  // Estimator.WheelGate
-    w.calibrate = opt.calibrate;
-    if (const auto v = settings.number("LocalMapping.Planar")) w.local_map = *v != 0;
-    if (const auto v = settings.number("LocalMapping.MaxWheelSpan")) w.max_wheel_span = *v;
-    w.spin_min_frames = opt.slip_hold_min_frames;  // one key for both hosts: Estimator.SlipHoldMinFrames
-    std::vector<std::pair<std::string, std::string>> more;
-    for (const char* prefix :
-         {"Odometry.Noise", "Odometry.CalibrateDistance", "Odometry.CalibrationConstant", "Reliability.", "Semantics.",
-          "LoopClosing.", "Initializer.", "ORBextractor.AlignedPyramid"}) {
-      for (const std::string& key : settings.keysWithPrefix(prefix)) {
-        if (key == "Semantics.LabelSet") {  // the texts among them
-          if (const auto t = settings.text(key)) more.emplace_back(key, "\"" + *t + "\"");
-        } else if (key == "Semantics.PriorsFile") {  // relative to the sequence's settings
-          if (const auto f = settings.file(key)) more.emplace_back(key, "\"" + *f + "\"");
-        } else if (const auto v = settings.number(key)) {
-          more.emplace_back(key, std::to_string(*v));
-        }
-      }
-    }
-    more.emplace_back("Segmentation.LabelDilation", std::to_string(opt.label_dilation_px));
-    rvwo::orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels ? &w : nullptr, more);
-    std::printf("rvwo-replay: ORB-SLAM3 settings %s, its console output in %s\n", o.settings.c_str(), o.log.c_str());
-    std::snprintf(g_abort_message, sizeof g_abort_message,
-                  "\nrvwo-replay: error: ORB-SLAM3 aborted (its last words are in %s); no trajectory written\n",
-                  o.log.c_str());
-    std::signal(SIGABRT, orbslam3Aborted);
-    runner_ = std::make_unique<rvwo::orbslam3::Runner>(o);
-    // Keyframes to the segmenter, labels into tracking's reliabilities (patch 0005): with the wheels.
-    if (wheels && segmenter) runner_->setSegmenter(segmenter);
-    scratch_ = fs::path(out).replace_extension(".orbslam3-").string();
-  }
-  // Frames wait for the wheel reading that reaches their time (in a rawlog it comes after them),
-  // so that ORB-SLAM3 is given the wheels up to the frame; without wheels they go at once.
-  // progress: called with each frame tracked.
-  void addWheels(const rvwo::orbslam3::WheelReading& r, const std::function<void(double, bool)>& progress) {
-    runner_->addWheels(r);
-    while (!waiting_.empty() && waiting_.front().timestamp <= r.t) {
-      const bool ok = track(waiting_.front());
-      progress(waiting_.front().timestamp, ok);
-      waiting_.pop_front();
-    }
-  }
-  void addFrame(const FrameInput& f, bool wheels, const std::function<void(double, bool)>& progress) {
-    if (wheels) {
-      waiting_.push_back(f);
-      while (waiting_.size() > 30) {  // a second of frames without wheels: go on without them
-        progress(waiting_.front().timestamp, track(waiting_.front()));
-        waiting_.pop_front();
-      }
-    } else {
-      progress(f.timestamp, track(f));
-    }
-  }
-  void flush(const std::function<void(double, bool)>& progress) {
-    for (; !waiting_.empty(); waiting_.pop_front()) progress(waiting_.front().timestamp, track(waiting_.front()));
-  }
-
-  // T_w_b per frame ORB-SLAM3 kept (w: the base at its first keyframe), and the report: with
-  // wheels, the plugin's frames on the wheels and slips.
-  rvwo::apps::Trajectory finish(rvwo::estimator::Report* rep) {
-    const auto result = runner_->finish(scratch_);
-    rvwo::apps::Trajectory out;
-    for (const auto& [t, T_c0_c] : result.T_c0_c) out.push_back({t, T_b_c_ * T_c0_c * T_b_c_.inverse()});
-    rep->frames = track_ms_.size();
-    rep->keyframes = result.keyframes;
-    rep->wheel_only_frames = result.wheel_only_frames;
-    rep->wheel_only_intervals = result.wheel_only_intervals;
-    rep->slip_frames = result.slip_frames;
-    rep->segmented_keyframes = result.segmented_keyframes;
-    rep->wheel_calibration = result.wheel_calibration;
-    local_maps_ = result.local_maps;
-    calibrated_local_maps_ = result.calibrated_local_maps;
-    rep->timings = {{"TrackFrame", rvwo::estimator::TimingStats::of(track_ms_)}};
-    return out;
-  }
-  // Frames ORB-SLAM3 did not track (lost, not initialised), and their stretches.
-  std::size_t lostFrames() const { return lost_frames_; }
-  // Local maps the plugin solved on SE(2), and those that refined the wheels' calibration.
-  std::size_t localMaps() const { return local_maps_; }
-  std::size_t calibratedLocalMaps() const { return calibrated_local_maps_; }
-  const std::vector<std::pair<double, double>>& lost() const { return lost_; }
-  const std::vector<double>& frameTimes() const { return frame_t_; }
-
- private:
-  // Returns whether ORB-SLAM3 tracks after the frame.
-  bool track(const FrameInput& f) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const bool ok = runner_->track(f.timestamp, f.image, f.right.empty() ? f.depth : f.right);
-    track_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    frame_t_.push_back(f.timestamp);
-    if (!ok) {
-      if (lost_.empty() || lost_.back().second != last_t_) lost_.emplace_back(f.timestamp, f.timestamp);
-      lost_.back().second = f.timestamp;
-      ++lost_frames_;
-    }
-    last_t_ = f.timestamp;
-    return ok;
-  }
-
-  Eigen::Isometry3d T_b_c_;
-  std::unique_ptr<rvwo::orbslam3::Runner> runner_;
-  std::string scratch_;
-  std::size_t lost_frames_ = 0;
-  std::size_t local_maps_ = 0, calibrated_local_maps_ = 0;
-  double last_t_ = NAN;
-  std::vector<std::pair<double, double>> lost_;
-  std::vector<double> track_ms_;
-  std::vector<double> frame_t_;
-  std::deque<FrameInput> waiting_;
-};
-#endif
 
 // The command line, in the order --help lists it.
 struct ReplayArgs {
@@ -679,7 +316,7 @@ class ReplayApp {
     }
     if (seg == "none") return;
     if (seg == "auto" || seg == "rawlog") {
-      rawlog_labels_ = std::make_shared<RawlogLabels>(opt_.priors.classes());
+      rawlog_labels_ = std::make_shared<rvwo::apps::RawlogLabels>(opt_.priors.classes());
       segmenter_ = rawlog_labels_;
       seg_name_ = "label images from the rawlog";
     } else if (seg.rfind("onnx:", 0) == 0) {
@@ -700,8 +337,8 @@ class ReplayApp {
     labels_label_ = settings_->text("Rawlog.LabelsLabel").value_or("LABELS");
 #ifdef RVWO_WITH_ORBSLAM3
     if (use_orbslam3_)
-      orbslam3_ =
-          std::make_unique<OrbSlam3Backend>(rig_, opt_, vw(), *settings_, req().vocabulary, req().out, segmenter_);
+      orbslam3_ = std::make_unique<rvwo::apps::OrbSlam3Backend>(rig_, opt_, vw(), *settings_, req().vocabulary,
+                                                                req().out, segmenter_);
 #endif
     if (!use_orbslam3_) {
       estimator_ = std::make_unique<rvwo::estimator::Estimator>(rig_, opt_, segmenter_);
@@ -756,7 +393,7 @@ class ReplayApp {
   }
 
   // One odometry record, as the settings' Odometry.Input says it is to be read.
-  void addOdometry(const Odometry& o) {
+  void addOdometry(const rvwo::apps::OdometryRecord& o) {
     if (odometry_input_ == "encoders") {
       if (!o.has_encoders) throw std::invalid_argument("no encoder ticks (Odometry.Input is encoders)");
       const double k = 2 * M_PI / ticks_per_rev_;
@@ -792,13 +429,13 @@ class ReplayApp {
 
   // Every record of the rawlog, in order, to the backend.
   void replay() {
-    Prefetcher reader(req().rawlog, camera_label_, odometry_label_, rawlog_labels_ ? labels_label_ : "",
-                      opt_.mode != rvwo::estimator::Mode::kWheel);
+    rvwo::apps::Prefetcher reader(req().rawlog, camera_label_, odometry_label_, rawlog_labels_ ? labels_label_ : "",
+                                  opt_.mode != rvwo::estimator::Mode::kWheel);
     tty_ = isatty(fileno(stderr)) && !req().quiet;
     t_start_ = std::chrono::steady_clock::now();
     Pacer pacer(realtime_, t_start_);
     while (auto e = reader.next()) {
-      if (auto* l = std::get_if<Labels>(&*e)) {
+      if (auto* l = std::get_if<rvwo::apps::LabelsRecord>(&*e)) {
         if (rawlog_labels_) rawlog_labels_->add(l->t, l->image);
         if (held_ && std::fabs(held_->timestamp - l->t) < 1e-6) flush();
         continue;
@@ -809,7 +446,7 @@ class ReplayApp {
         if (std::isnan(first_t_)) first_t_ = f->timestamp;
         last_t_ = f->timestamp;
         held_ = std::move(*f);
-      } else if (auto* o = std::get_if<Odometry>(&*e)) {
+      } else if (auto* o = std::get_if<rvwo::apps::OdometryRecord>(&*e)) {
         ++odometry_count_;
         pacer.wait(o->t);
         if (opt_.mode == rvwo::estimator::Mode::kVo) continue;
@@ -818,7 +455,7 @@ class ReplayApp {
         } catch (const std::invalid_argument& ex) {
           skip("odometry at t = " + std::to_string(o->t) + ": " + ex.what());
         }
-      } else if (auto* s = std::get_if<Skip>(&*e)) {
+      } else if (auto* s = std::get_if<rvwo::apps::SkippedRecord>(&*e)) {
         skip(s->why);
       }
     }
@@ -1027,10 +664,10 @@ class ReplayApp {
   std::string odometry_input_, seg_name_ = "none", camera_label_, odometry_label_, labels_label_;
   bool use_orbslam3_ = false, tty_ = false;
   std::shared_ptr<rvwo::Segmenter> segmenter_;
-  std::shared_ptr<RawlogLabels> rawlog_labels_;
+  std::shared_ptr<rvwo::apps::RawlogLabels> rawlog_labels_;
   std::unique_ptr<rvwo::estimator::Estimator> estimator_;
 #ifdef RVWO_WITH_ORBSLAM3
-  std::unique_ptr<OrbSlam3Backend> orbslam3_;
+  std::unique_ptr<rvwo::apps::OrbSlam3Backend> orbslam3_;
 #endif
   // Replay state.
   std::chrono::steady_clock::time_point t_start_ = std::chrono::steady_clock::now();

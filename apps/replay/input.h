@@ -1,0 +1,100 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// rvwo-replay's input: a rawlog's records, read and decoded ahead of the estimator in a thread of
+// its own (Prefetcher), and the label images it carries served as a segmenter (RawlogLabels).
+// Record conventions: docs/rawlog.md.
+#pragma once
+
+#include <mrpt/img/CImage.h>
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "rvwo/edges/se2.h"
+#include "rvwo/estimator/estimator.h"
+#include "rvwo/semantics/segmenter.h"
+#include "support/rawlog.h"
+
+namespace rvwo::apps {
+
+// Label images that came in the rawlog (sensor LABELS), served by timestamp: the simulator's
+// ground truth or a dataset's masks, through the same Segmenter interface as a network. Decoded
+// only when a keyframe asks (one frame in ten or so: decoding every one cost a fifth of a replay's
+// time).
+class RawlogLabels final : public Segmenter {
+ public:
+  explicit RawlogLabels(std::vector<std::string> classes) : classes_(std::move(classes)) {}
+  // The label image of time t (the last 3 s of them are kept: a keyframe asks at once).
+  void add(double t, mrpt::img::CImage labels);
+  bool any() const;
+  Segmentation segment(const cv::Mat&, const FrameInfo& info) override;
+  const std::vector<std::string>& classNames() const override { return classes_; }
+  // Label images that could not be decoded, and the first one's error.
+  std::pair<std::size_t, std::string> failures() const;
+
+ private:
+  std::vector<std::string> classes_;
+  mutable std::mutex mutex_;
+  std::map<double, mrpt::img::CImage> labels_;
+  std::size_t failures_ = 0;
+  std::string first_failure_;
+};
+
+// What the reader thread hands over, in rawlog order.
+struct OdometryRecord {
+  double t;
+  SE2 pose;
+  bool has_encoders, has_velocities;
+  double ticks_left, ticks_right, v, omega;
+};
+struct LabelsRecord {
+  double t;
+  mrpt::img::CImage image;  // not decoded yet (a path, when stored outside the rawlog)
+};
+struct SkippedRecord {
+  std::string why;
+};
+using ReplayEvent = std::variant<estimator::FrameInput, OdometryRecord, LabelsRecord, SkippedRecord>;
+
+// Reads and decodes ahead of the estimator in a thread of its own (bounded: a few frames).
+class Prefetcher {
+ public:
+  // Records of camera_label, odometry_label and labels_label ("": none) become events; the
+  // camera's images are decoded only when want_images.
+  Prefetcher(const std::string& path, std::string camera_label, std::string odometry_label, std::string labels_label,
+             bool want_images);
+  ~Prefetcher();
+  // The next event, or nullopt at the end (error() then says whether the file ended badly).
+  std::optional<ReplayEvent> next();
+  std::string error() const;
+  // Records read (after the reading thread is done).
+  std::size_t records() const;
+
+ private:
+  void push(ReplayEvent e);
+  void run();
+  // The event of one record (throws on a record of a known sensor that cannot be used).
+  std::optional<ReplayEvent> eventOf(const mrpt::obs::CObservation::Ptr& obs, double t) const;
+  estimator::FrameInput frameOf(const mrpt::obs::CObservation::Ptr& obs, double t) const;
+
+  RawlogReader reader_;
+  const std::string camera_, odometry_, labels_;
+  const bool want_images_;
+  std::thread thread_;
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<ReplayEvent> queue_;
+  bool stop_ = false, done_ = false;
+  std::string error_;
+};
+
+}  // namespace rvwo::apps
