@@ -29,6 +29,7 @@
 #include "rvwo/semantics/label_lookup.h"
 #include "rvwo/tracking/planar_pose.h"
 #include "rvwo/tracking/wheel_checks.h"
+#include "rvwo/tracking/window.h"
 
 namespace rvwo::estimator {
 namespace {
@@ -1311,310 +1312,157 @@ struct Estimator::Impl {
     }
   }
 
+  // The window's problem under the map lock: the last Estimator.Window keyframes free, the one
+  // before them fixed (it carries the gauge and the wheel edge into the window; at the start, the
+  // first keyframe), the points they see that the kernel does not reject, and every keyframe in
+  // memory that sees those points, fixed. ids: the keyframes' and points' ids, in the problem's
+  // order; features: per observation, the keyframe's feature. (Map lock held.)
+  WindowProblem windowProblem(std::vector<std::uint64_t>* kf_ids, std::vector<std::uint64_t>* point_ids,
+                              std::vector<int>* features) const {
+    WindowProblem pb;
+    std::vector<std::uint64_t> all;
+    for (const auto& kv : keyframes) all.push_back(kv.first);
+    const std::size_t first_var = all.size() > static_cast<std::size_t>(opt.window) ? all.size() - opt.window : 0;
+    std::unordered_map<std::uint64_t, std::size_t> kf_index, point_index;
+    auto addKeyFrame = [&](std::uint64_t id, bool fixed) {
+      kf_index[id] = kf_ids->size();
+      kf_ids->push_back(id);
+      const KeyFrame& kf = keyframes.at(id);
+      pb.keyframes.push_back({kf.x, kf.t, fixed});
+    };
+    const std::size_t from = first_var > 0 ? first_var - 1 : 0;
+    for (std::size_t i = from; i < all.size(); ++i) addKeyFrame(all[i], i == from);
+    for (std::size_t i = first_var; i < all.size(); ++i) {
+      const KeyFrame& kf = keyframes.at(all[i]);
+      for (std::size_t j = 0; j < kf.f.size(); ++j) {
+        if (kf.point[j] < 0) continue;
+        const std::uint64_t pid = static_cast<std::uint64_t>(kf.point[j]);
+        if (point_index.count(pid)) continue;
+        const double a = kernelAlpha(pid);
+        if (rejected(a)) continue;
+        point_index[pid] = point_ids->size();
+        point_ids->push_back(pid);
+        pb.points.push_back({points.at(pid).P, a});
+      }
+    }
+    // Observations of those points by keyframes in the problem; others in memory join fixed.
+    for (std::size_t pi = 0; pi < point_ids->size(); ++pi) {
+      for (const auto& [kf_id, feature] : points.at((*point_ids)[pi]).obs) {
+        if (!kf_index.count(kf_id)) {
+          if (!keyframes.count(kf_id)) continue;
+          addKeyFrame(kf_id, true);
+        }
+        const Features& f = keyframes.at(kf_id).f;
+        const int level = f.keypoints[feature].octave;
+        pb.observations.push_back({static_cast<int>(kf_index.at(kf_id)), static_cast<int>(pi), observation(f, feature),
+                                   hasStereo(f, feature), opt.sigma_px * std::pow(opt.scale_factor, level)});
+        features->push_back(feature);
+      }
+    }
+    return pb;
+  }
+
+  // Wheel edges between keyframes consecutive in time, one end at least free: Huber across a slip
+  // tracking caught; across a spin (Estimator.SlipHoldMinFrames frames or more where the robot
+  // about stood while the wheels went on) out of the first round, stereo and RGB-D only (mono's
+  // window takes its scale from them; docs/decisions/0003).
+  void addWheelEdges(WindowProblem* pb, const std::vector<std::uint64_t>& kf_ids) {
+    std::vector<std::size_t> order;
+    for (std::size_t i = 0; i < kf_ids.size(); ++i) order.push_back(i);
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return kf_ids[a] < kf_ids[b]; });
+    for (std::size_t k = 0; k + 1 < order.size(); ++k) {
+      const std::size_t a = order[k], b = order[k + 1];
+      const WindowKeyFrame &ka = pb->keyframes[a], &kb = pb->keyframes[b];
+      if (ka.fixed && kb.fixed) continue;
+      const std::optional<WheelDelta> d = wheelDelta(ka.t, kb.t);
+      if (!d) continue;
+      const SlipCount slips = slipsBetween(ka.t, kb.t);
+      pb->wheels.push_back({static_cast<int>(a), static_cast<int>(b), *d, slips.frames > 0,
+                            rig.sensor != Sensor::kMono && slips.spins >= opt.slip_hold_min_frames});
+    }
+  }
+
+  WindowOptions windowOptions() const {
+    WindowOptions wo;
+    wo.huber = opt.kernel == KernelChoice::kHuber;
+    wo.barron_scale = opt.barron_scale;
+    wo.out_of_plane = opt.out_of_plane;
+    wo.min_views = rig.sensor == Sensor::kMono ? 2 : 1;  // a mono point needs two views for its depth
+    wo.outliers_leave = true;
+    wo.drop_slipping_wheel_edges = true;
+    wo.slipped_wheel_chi2 = kChi2Stereo;
+    wo.calibrate = opt.mode == Mode::kVw && opt.calibrate;
+    // Mono has no metric but the wheels': scaling the window's map and the wheels' distance scale
+    // together changes no residual (left free, it drifted to 0.976-0.994 over the mono suite).
+    wo.hold_distance_scale = rig.sensor == Sensor::kMono;
+    wo.calibration_sigma = opt.calibration_sigma;
+    wo.calibration_step = opt.calibration_step;
+    wo.calibration_period = opt.calibration_period;
+    return wo;
+  }
+
+  // Local BA over the window (rvwo::solveWindow), solved without the map lock, written back under
+  // it: poses, points, outlier observations erased, each point's RMS error into its reliability
+  // (eq. 6), the wheels' calibration if the window taught it.
   void localBundleAdjustment() {
     auto t0 = Clock::now();
-    // ---- snapshot under the lock ----
-    struct Obs {
-      std::size_t kf, point;
-      int feature;
-      Eigen::Vector3d z;
-      bool stereo;
-      double sigma;
-      std::uint64_t point_id, kf_id;
-    };
-    std::vector<std::uint64_t> kf_ids;
-    std::vector<Eigen::Vector3d> x;
-    std::vector<double> kf_t;
-    std::vector<char> fixed;
-    std::vector<std::uint64_t> point_ids;
-    std::vector<Eigen::Vector3d> P;
-    std::vector<double> alpha;
-    std::vector<Obs> obs;
+    std::vector<std::uint64_t> kf_ids, point_ids;
+    std::vector<int> features;
+    WindowProblem pb;
     {
       std::lock_guard<std::mutex> lock(map_mutex);
       if (keyframes.size() < 2) return;
-      std::vector<std::uint64_t> all;
-      for (const auto& kv : keyframes) all.push_back(kv.first);
-      const std::size_t first_var = all.size() > static_cast<std::size_t>(opt.window) ? all.size() - opt.window : 0;
-      std::unordered_map<std::uint64_t, std::size_t> kf_index, point_index;
-      // Window keyframes are variables; the one just before the window is fixed (it carries the
-      // gauge and the wheel edge into the window); at the start the first keyframe is fixed.
-      const std::size_t from = first_var > 0 ? first_var - 1 : 0;
-      for (std::size_t i = from; i < all.size(); ++i) {
-        kf_index[all[i]] = kf_ids.size();
-        kf_ids.push_back(all[i]);
-        x.push_back(keyframes.at(all[i]).x);
-        kf_t.push_back(keyframes.at(all[i]).t);
-        fixed.push_back(i == from);
-      }
-      for (std::size_t i = first_var; i < all.size(); ++i) {
-        const KeyFrame& kf = keyframes.at(all[i]);
-        for (std::size_t j = 0; j < kf.f.size(); ++j) {
-          if (kf.point[j] < 0) continue;
-          const std::uint64_t pid = static_cast<std::uint64_t>(kf.point[j]);
-          if (point_index.count(pid)) continue;
-          const double a = kernelAlpha(pid);
-          if (rejected(a)) continue;
-          point_index[pid] = point_ids.size();
-          point_ids.push_back(pid);
-          P.push_back(points.at(pid).P);
-          alpha.push_back(a);
-        }
-      }
-      // Observations of those points by keyframes in the problem; others in memory join fixed.
-      for (std::size_t pi = 0; pi < point_ids.size(); ++pi) {
-        for (const auto& [kf_id, feature] : points.at(point_ids[pi]).obs) {
-          auto ki = kf_index.find(kf_id);
-          if (ki == kf_index.end()) {
-            if (!keyframes.count(kf_id)) continue;
-            ki = kf_index.emplace(kf_id, kf_ids.size()).first;
-            kf_ids.push_back(kf_id);
-            x.push_back(keyframes.at(kf_id).x);
-            kf_t.push_back(keyframes.at(kf_id).t);
-            fixed.push_back(1);
-          }
-          const Features& f = keyframes.at(kf_id).f;
-          const cv::KeyPoint& kp = f.keypoints[feature];
-          Obs o{ki->second,
-                pi,
-                feature,
-                observation(f, feature),
-                hasStereo(f, feature),
-                opt.sigma_px * std::pow(opt.scale_factor, kp.octave),
-                point_ids[pi],
-                kf_id};
-          obs.push_back(o);
-        }
-      }
+      pb = windowProblem(&kf_ids, &point_ids, &features);
     }
-    // ---- solve without the lock ----
-    ceres::Problem::Options po;
-    po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-    po.enable_fast_removal = true;  // outliers leave between the rounds
-    ceres::Problem problem(po);
-    std::vector<ceres::ResidualBlockId> blocks(obs.size(), nullptr);
-    auto loss = [&](double a, bool stereo) -> ceres::LossFunction* {
-      return ceres_adapters::reprojectionLoss(opt.kernel == KernelChoice::kHuber, a, opt.barron_scale,
-                                              chi2Gate(stereo));
-    };
-    auto cost = [&](const Obs& o) -> ceres::CostFunction* {
-      const Eigen::Vector3d &xk = x[o.kf], &Pk = P[o.point];
-      if (o.stereo) return new ceres_adapters::Se2XyzCost<3>(*stereo_edge, o.z, sqrtInformation<3>(xk, Pk, o.sigma));
-      return new ceres_adapters::Se2XyzCost<2>(mono_edge, o.z.head<2>(), sqrtInformation<2>(xk, Pk, o.sigma));
-    };
-    // A mono point needs two views to be fixed in depth; with one it is left out (as it is).
-    const int min_edges = rig.sensor == Sensor::kMono ? 2 : 1;
-    {
-      std::vector<int> projecting(P.size(), 0);
-      std::vector<char> projects(obs.size(), 0);
-      for (std::size_t k = 0; k < obs.size(); ++k) {
-        Eigen::Vector2d h;
-        projects[k] = mono_edge.predict(x[obs[k].kf], P[obs[k].point], &h);
-        projecting[obs[k].point] += projects[k];
-      }
-      for (std::size_t k = 0; k < obs.size(); ++k) {
-        const Obs& o = obs[k];
-        if (!projects[k] || projecting[o.point] < min_edges) continue;
-        blocks[k] =
-            problem.AddResidualBlock(cost(o), loss(alpha[o.point], o.stereo), x[o.kf].data(), P[o.point].data());
-      }
-    }
-    // The odometry's calibration, a variable of the window's wheel edges: a prior around the last
-    // estimate (opt.calibration_step, shared out over the time since that estimate), so that each
-    // BA refines what the windows before found, and one around zero (opt.calibration_sigma) until
-    // a BA has had it free (WheelCalibrationEstimate::addPriors).
-    ceres_adapters::WheelCalibrationEstimate cal;
+    if (opt.mode == Mode::kVw) addWheelEdges(&pb, kf_ids);
     {
       std::lock_guard<std::mutex> lock(odometry_mutex);
-      cal = calibration;
+      pb.calibration = calibration;
     }
-    const double newest_t = *std::max_element(kf_t.begin(), kf_t.end());
-    WheelCalibration c = cal.c;
-    const WheelCalibration& c_before = cal.c;
-    const bool calibrate = opt.mode == Mode::kVw && opt.calibrate;
-    struct WheelSpan {
-      ceres::ResidualBlockId block;  // nullptr: not in the problem (yet)
-      std::size_t a, b;
-      WheelEdge edge;  // what the wheels measured, integrated with the calibration before this BA
-      bool slipped;    // across a slip tracking caught (Huber, no calibration)
-      bool held_out;   // ... across a spin: the first round goes without it
-    };
-    std::vector<WheelSpan> wheel_edges;
-    if (opt.mode == Mode::kVw) {
-      // Wheel edges between consecutive keyframes of the window (and from the fixed one before it).
-      std::vector<std::size_t> order;
-      for (std::size_t i = 0; i < kf_ids.size(); ++i) order.push_back(i);
-      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return kf_ids[a] < kf_ids[b]; });
-      for (std::size_t k = 0; k + 1 < order.size(); ++k) {
-        const std::size_t a = order[k], b = order[k + 1];
-        if (fixed[a] && fixed[b]) continue;
-        const std::optional<WheelDelta> d = wheelDelta(kf_t[a], kf_t[b]);
-        if (!d) continue;
-        try {
-          // Across a slip that tracking caught, the wheel edge gets a Huber kernel (it measured
-          // motion that did not happen); elsewhere it stays quadratic: among walkers it is what
-          // holds the window to the static world (Huber at the 99.9 % gate on every wheel edge:
-          // slip 0.88 %, dynamic 2.0 % with Huber kernels, measured). A slip tracking missed is
-          // caught after the first round (below).
-          // Nor does such an edge speak of the calibration: it would take the slip for a scale
-          // error (the wheels of a turn on the spot that spun took the turn scale to 0.6).
-          const SlipCount slips = slipsBetween(kf_t[a], kf_t[b]);
-          const bool slipped = slips.frames > 0;
-          // Across a spin (Estimator.SlipHoldMinFrames frames or more where the robot about stood
-          // while the wheels went on) the first round goes without the edge, and the second has it
-          // (Huber) only if the keyframes agree with it (below): there from the first round, even
-          // under Huber, it dragged the new keyframe along the spinning wheels where vision sees
-          // little (forward, on far points; stereo combined seed 3, 60.3 s: 16 cm and 13 mrad,
-          // then 0.85 % of the path; without it 0.10 %). Only a spin: leaving out every slipped
-          // edge cut the window loose where a skid or walkers had made the slip (the dynamic
-          // scenario without labels: 3.0 % against 0.58 %). Not mono: there the wheel edges are
-          // the window's scale (mono slip seed 1: 0.15 % against 0.43 %).
-          const bool held_out = rig.sensor != Sensor::kMono && slips.spins >= opt.slip_hold_min_frames;
-          ceres::LossFunction* wheel_loss = slipped ? new ceres::HuberLoss(std::sqrt(kChi2Stereo)) : nullptr;
-          const WheelEdge edge(*d);
-          ceres::ResidualBlockId block = nullptr;
-          if (held_out) {
-            delete wheel_loss;
-          } else if (calibrate && !slipped) {
-            block = problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(edge), wheel_loss, x[a].data(),
-                                             x[b].data(), c.data());
-          } else {
-            block = problem.AddResidualBlock(new ceres_adapters::WheelCost(edge), wheel_loss, x[a].data(), x[b].data());
-          }
-          wheel_edges.push_back({block, a, b, edge, slipped, held_out});
-        } catch (const std::invalid_argument&) {
-        }
-      }
-    }
-    if (calibrate && problem.HasParameterBlock(c.data())) {
-      cal.addPriors(&problem, c.data(), opt.calibration_sigma, opt.calibration_step, opt.calibration_period, newest_t);
-      // Mono has no metric but the wheels': scaling the window's map and the wheels' distance
-      // scale together changes no residual, so that scale is left as it is (the turn scale and the
-      // curvature are angles vision sees). Left free, it drifted to 0.976-0.994 over the mono suite
-      // (stereo: 1.002) and the map with it: 8.9 % scale error in a threaded mono combined run.
-      if (rig.sensor == Sensor::kMono) problem.SetManifold(c.data(), new ceres::SubsetManifold(3, {0}));
-    }
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      if (!problem.HasParameterBlock(x[i].data())) continue;
-      problem.SetManifold(x[i].data(), new ceres_adapters::SE2Manifold);
-      if (fixed[i]) problem.SetParameterBlockConstant(x[i].data());
-    }
-    ceres::Solver::Options so;
-    // The reduced camera system is small (a window of poses, 3 each): dense Schur beats sparse.
-    so.linear_solver_type = ceres::DENSE_SCHUR;
-    so.num_threads = 1;
-    so.max_num_iterations = 5;
-    so.logging_type = ceres::SILENT;
-    ceres::Solver::Summary summary;
-    auto chi2Of = [&](const Obs& o, double* e) { return chi2(o.stereo, x[o.kf], P[o.point], o.z, o.sigma, e); };
-    bool c_free = false;  // the calibration was a variable of the second round
-    if (problem.NumResidualBlocks() > 0) {
-      ceres::Solve(so, &problem, &summary);
-      // Outliers leave the second round (ORB-SLAM's two-stage local BA); so does a wheel edge
-      // that vision contradicts beyond the 99.9 % gate the way a slip does (spinning wheels that
-      // tracking did not catch): the wheels measured clearly more travel than the keyframes made,
-      // along their own direction, or clearly more turn, their own way. Among walkers, where a
-      // window may be pulled any way, the wheel edges stay (dropping every edge beyond the gate:
-      // dynamic 3.9 % with Huber kernels, 0.75 % adaptive; the travel rule: 1.2 % and 0.54 %, slip
-      // 0.29 % and 0.10 %; measured). Judged with the calibration before this BA: the first round
-      // may have moved c to explain the slip away.
-      bool slip_found = false;
-      for (WheelSpan& w : wheel_edges) {
-        // The residual is what the keyframes made less what the wheels claimed: minus the miss.
-        const Eigen::Vector3d r = w.edge.residual(x[w.a], x[w.b]);
-        const bool agrees = (w.edge.sqrtInformation() * r).squaredNorm() <= kChi2WheelOutlier;
-        if (w.held_out) {  // back for the second round only where the first round's keyframes agree
-          if (agrees && problem.HasParameterBlock(x[w.a].data()) && problem.HasParameterBlock(x[w.b].data())) {
-            w.block =
-                problem.AddResidualBlock(new ceres_adapters::WheelCost(w.edge),
-                                         new ceres::HuberLoss(std::sqrt(kChi2Stereo)), x[w.a].data(), x[w.b].data());
-          }
-          continue;
-        }
-        if (agrees) continue;
-        const Eigen::Vector2d& dp = w.edge.delta().dp;
-        const Eigen::Vector2d miss = -r.head<2>();
-        const double dphi = w.edge.delta().dphi, turn_miss = -r.z();
-        const double along = dp.norm() < 0.02 ? 0.0 : miss.dot(dp.normalized());
-        const bool travel_slip = along > 0.3 * dp.norm() && along * along > 0.6 * miss.squaredNorm();
-        const bool turn_slip =
-            std::fabs(dphi) >= 0.05 && turn_miss * dphi > 0 && std::fabs(turn_miss) > 0.3 * std::fabs(dphi);
-        if (travel_slip || turn_slip) {
-          problem.RemoveResidualBlock(w.block);
-          ++wheel_outliers;
-          slip_found = true;
-        }
-      }
-      // The calibration learns only from windows the wheels agree with once it is applied: a
-      // differential drive's calibration cannot explain sideways motion, nor a turn scale that
-      // changes from one window to the next. Where a wheel edge stays beyond its gate (walkers
-      // pulling the window, a slip caught above), the second round keeps the last calibration,
-      // fixed: left free, walkers filling the view took the curvature from -0.03 to +0.3 rad/m
-      // in a second, and a spin on the spot the turn scale from 0.98 to 0.61.
-      bool consistent = !slip_found;  // (so the loop never meets a removed block)
-      for (std::size_t k = 0; consistent && k < wheel_edges.size(); ++k) {
-        double cost = 0;
-        if (wheel_edges[k].slipped) continue;
-        if (problem.EvaluateResidualBlock(wheel_edges[k].block, false, &cost, nullptr, nullptr) &&
-            2.0 * cost > kChi2WheelOutlier)
-          consistent = false;
-      }
-      if (calibrate && !consistent && problem.HasParameterBlock(c.data())) {
-        c = c_before;
-        problem.SetParameterBlockConstant(c.data());
-      }
-      c_free = calibrate && consistent && problem.HasParameterBlock(c.data());
-      for (std::size_t k = 0; k < obs.size(); ++k) {
-        double chi2 = 0;
-        if (blocks[k] && (!chi2Of(obs[k], &chi2) || chi2 > chi2Gate(obs[k].stereo))) {
-          problem.RemoveResidualBlock(blocks[k]);
-          blocks[k] = nullptr;
-        }
-      }
-      // A point whose every edge left (mono: all but one) would make the Schur complement
-      // singular: it leaves too.
-      std::vector<int> edges_left(P.size(), 0);
-      for (std::size_t k = 0; k < obs.size(); ++k) edges_left[obs[k].point] += blocks[k] != nullptr;
-      for (std::size_t pi = 0; pi < P.size(); ++pi) {
-        if (edges_left[pi] < min_edges && problem.HasParameterBlock(P[pi].data())) {
-          problem.RemoveParameterBlock(P[pi].data());  // with its edges
-        }
-      }
-      so.max_num_iterations = 10;
-      ceres::Solve(so, &problem, &summary);
-    }
+    const WindowSolution sol = solveWindow(mono_edge, stereo_edge ? &*stereo_edge : nullptr, pb, windowOptions());
+    wheel_outliers += sol.wheel_edges_dropped;
     timings.add("local BA", msSince(t0));
-    // ---- write back under the lock ----
     std::lock_guard<std::mutex> lock(map_mutex);
-    if (!summary.IsSolutionUsable() && problem.NumResidualBlocks() > 0) return;
-    if (c_free && c.allFinite()) {  // (held fixed, c is c_before: nothing learnt)
+    if (!sol.usable) return;
+    if (sol.calibrated) {
       std::lock_guard<std::mutex> olock(odometry_mutex);
-      calibration.refined(c, newest_t);
+      calibration.refined(sol.calibration, newestTime(pb));
     }
+    writeBack(pb, sol, kf_ids, point_ids, features);
+  }
+
+  static double newestTime(const WindowProblem& pb) {
+    double t = -1e300;
+    for (const WindowKeyFrame& k : pb.keyframes) t = std::max(t, k.t);
+    return t;
+  }
+
+  // (Map lock held.)
+  void writeBack(const WindowProblem& pb, const WindowSolution& sol, const std::vector<std::uint64_t>& kf_ids,
+                 const std::vector<std::uint64_t>& point_ids, const std::vector<int>& features) {
     for (std::size_t i = 0; i < kf_ids.size(); ++i) {
-      if (fixed[i]) continue;
+      if (pb.keyframes[i].fixed) continue;
       auto it = keyframes.find(kf_ids[i]);
-      if (it != keyframes.end()) it->second.x = x[i];
+      if (it != keyframes.end()) it->second.x = sol.x_w_b[i];
     }
-    std::vector<double> sum(P.size(), 0.0);
-    std::vector<int> count(P.size(), 0);
-    for (std::size_t k = 0; k < obs.size(); ++k) {
-      const Obs& o = obs[k];
-      double chi2 = 1e9;
-      const bool ok = chi2Of(o, &chi2);
-      sum[o.point] += std::min(chi2, 1e4);
+    std::vector<double> sum(point_ids.size(), 0.0);
+    std::vector<int> count(point_ids.size(), 0);
+    for (std::size_t k = 0; k < pb.observations.size(); ++k) {
+      const WindowObservation& o = pb.observations[k];
+      sum[o.point] += std::min(sol.chi2[k], 1e4);
       ++count[o.point];
-      if (!ok || chi2 > chi2Gate(o.stereo)) {  // the observation goes
-        auto p = points.find(o.point_id);
-        if (p != points.end()) p->second.obs.erase(o.kf_id);
-        auto kf = keyframes.find(o.kf_id);
-        if (kf != keyframes.end()) kf->second.point[o.feature] = -1;
+      if (sol.outlier[k]) {  // the observation goes
+        const std::uint64_t kf_id = kf_ids[o.keyframe];
+        auto p = points.find(point_ids[o.point]);
+        if (p != points.end()) p->second.obs.erase(kf_id);
+        auto kf = keyframes.find(kf_id);
+        if (kf != keyframes.end()) kf->second.point[features[k]] = -1;
       }
     }
-    for (std::size_t pi = 0; pi < P.size(); ++pi) {
+    for (std::size_t pi = 0; pi < point_ids.size(); ++pi) {
       auto p = points.find(point_ids[pi]);
       if (p == points.end()) continue;
-      p->second.P = P[pi];
+      p->second.P = sol.P_w[pi];
       // Eq. 6: the landmark's RMS whitened error over the window.
       if (opt.kernel == KernelChoice::kAdaptive && count[pi] > 0)
         reliability.observe(point_ids[pi], std::nullopt, std::sqrt(sum[pi] / count[pi]));

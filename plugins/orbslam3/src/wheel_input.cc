@@ -26,6 +26,7 @@
 #include "rvwo/settings/settings.h"
 #include "rvwo/tracking/planar_pose.h"
 #include "rvwo/tracking/wheel_checks.h"
+#include "rvwo/tracking/window.h"
 
 namespace rvwo::orbslam3 {
 namespace {
@@ -181,6 +182,10 @@ struct WheelInput::Impl {
     }
     return spans;
   }
+  WindowProblem windowProblem(const LocalMapProblem& pb, std::vector<Span>* spans);
+  WindowOptions windowOptions(const ceres_adapters::WheelCalibrationEstimate& cal, const bool* stop) const;
+  void learnCalibration(const WindowProblem& w, const std::vector<Span>& spans, const WindowSolution& sol);
+
   // The last frame optimisePose placed, and the last one of those vision went on to track: after
   // a stretch on the wheels alone the wheel edge starts there, so that it carries the stretch's
   // whole uncertainty. (Tied to the previous frame, itself the wheels' guess, it held the frame
@@ -638,227 +643,123 @@ Eigen::Vector3d WheelInput::calibration() const {
 
 bool WheelInput::optimisesLocalMaps() const { return optimisesPoses() && impl_->params.local_map; }
 
-namespace {
-
-// Ends the solve when ORB-SLAM3 asks local mapping to (a new keyframe came): the state reached is
-// kept, as g2o's force-stop flag keeps it in ORB-SLAM3's own local bundle adjustment.
-class StopFlag final : public ceres::IterationCallback {
- public:
-  explicit StopFlag(const bool* stop) : stop_(stop) {}
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
-    return stop_ && *stop_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+// The problem on the plane: keyframes as robot poses x_w_b (out of the plane parts dropped, as
+// tracking drops them), points in the planar world (T_w_c0 = T_b_c), each point's shape (eq. 7),
+// and the wheels between keyframes (ORB-SLAM3's local window is the covisible keyframes: mostly
+// the last ones, whose wheel edges chain them to the fixed ones before). Locks the mutex.
+WindowProblem WheelInput::Impl::windowProblem(const LocalMapProblem& pb, std::vector<Span>* spans) {
+  WindowProblem w;
+  const std::size_t nk = pb.keyframes.size();
+  std::vector<double> t(nk);
+  std::vector<char> fixed(nk);
+  for (std::size_t k = 0; k < nk; ++k) {
+    const MapKeyFrame& kf = pb.keyframes[k];
+    w.keyframes.push_back({planarOf(kf.T_c_w), kf.t, kf.fixed});
+    t[k] = kf.t;
+    fixed[k] = kf.fixed;
   }
+  const bool has_stereo = pb.keyframes.front().bf > 0;
+  for (const MapObservation& o : pb.observations) {
+    w.observations.push_back({o.keyframe, o.point, Eigen::Vector3d(o.u, o.v, o.u_right), o.u_right >= 0 && has_stereo,
+                              std::pow(pb.scale_factor, o.level)});
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  for (const MapPointEstimate& p : pb.points)
+    w.points.push_back({params.T_b_c * p.P_w, params.huber ? 1.0 : reliability.alpha(p.id)});
+  w.calibration = calibration;
+  *spans = wheelSpans(t, fixed);
+  for (const Span& sp : *spans)
+    w.wheels.push_back({static_cast<int>(sp.a), static_cast<int>(sp.b), sp.delta, sp.slipped, sp.spin});
+  return w;
+}
 
- private:
-  const bool* stop_;
-};
-
-}  // namespace
+// ORB-SLAM3's contract: outliers judged but not dropped between the rounds (it erases them
+// afterwards), nothing solved unless a fixed keyframe holds the window, the abort flag obeyed.
+WindowOptions WheelInput::Impl::windowOptions(const ceres_adapters::WheelCalibrationEstimate& cal,
+                                              const bool* stop) const {
+  WindowOptions o;
+  o.huber = params.huber;
+  o.barron_scale = params.barron_scale;
+  o.out_of_plane = out_of_plane;
+  o.min_views = 1;
+  o.outliers_leave = false;
+  o.drop_slipping_wheel_edges = false;
+  o.slipped_wheel_chi2 = kChi2WheelOutlier;
+  o.calibrate = params.calibrate;
+  o.hold_distance_scale = !params.calibrate_distance;
+  o.calibration_sigma = params.calibration_sigma;
+  o.calibration_step = cal.counting ? params.calibration_drift : params.calibration_step;
+  o.calibration_period = params.calibration_period;
+  o.needs_a_fixed_keyframe = true;
+  o.stop = stop;
+  return o;
+}
 
 bool WheelInput::optimiseLocalMap(const LocalMapProblem& pb, LocalMapSolution* out, const bool* stop) {
   if (!optimisesLocalMaps()) return false;
   Impl& m = *impl_;
-  const std::size_t nk = pb.keyframes.size(), np = pb.points.size(), no = pb.observations.size();
+  const std::size_t nk = pb.keyframes.size(), np = pb.points.size();
   out->T_c_w.resize(nk);
-  out->P_w.resize(np);
+  out->P_w = std::vector<Eigen::Vector3d>(np);
   out->placed.assign(nk, 0);
   out->solved.assign(np, 0);
-  out->outlier.assign(no, 0);
+  out->outlier.assign(pb.observations.size(), 0);
   out->wheel_edges = 0;
   out->calibrated = false;
   for (std::size_t k = 0; k < nk; ++k) out->T_c_w[k] = pb.keyframes[k].T_c_w;
   for (std::size_t i = 0; i < np; ++i) out->P_w[i] = pb.points[i].P_w;
   if (nk == 0) return true;
 
-  // On the plane: keyframes as robot poses x_w_b (out of the plane parts dropped, as tracking
-  // drops them), points in the planar world (T_w_c0 = T_b_c).
-  std::vector<Eigen::Vector3d> x(nk), P(np);
-  for (std::size_t k = 0; k < nk; ++k) x[k] = m.planarOf(pb.keyframes[k].T_c_w);
-  for (std::size_t i = 0; i < np; ++i) P[i] = m.params.T_b_c * pb.points[i].P_w;
+  std::vector<Impl::Span> spans;
+  const WindowProblem w = m.windowProblem(pb, &spans);
   const MapKeyFrame& k0 = pb.keyframes.front();
   const PinholeCamera camera(k0.fx, k0.fy, k0.cx, k0.cy);
   const Se2XyzMonoEdge mono(camera, m.params.T_b_c);
   std::optional<Se2XyzStereoEdge> stereo;  // none for mono (bf 0)
   if (k0.bf > 0) stereo.emplace(camera, m.params.T_b_c, k0.bf);
-
-  // What tracking shares: each point's shape (eq. 7) and the wheels between keyframes.
-  std::vector<double> alpha(np, 1.0);
-  std::vector<Impl::Span> spans;
-  ceres_adapters::WheelCalibrationEstimate cal;
-  double newest_t;
-  {
-    std::vector<double> t(nk);
-    std::vector<char> fixed(nk);
-    for (std::size_t k = 0; k < nk; ++k) {
-      t[k] = pb.keyframes[k].t;
-      fixed[k] = pb.keyframes[k].fixed;
-    }
-    std::lock_guard<std::mutex> lock(m.mutex);
-    cal = m.calibration;
-    newest_t = *std::max_element(t.begin(), t.end());
-    if (!m.params.huber)
-      for (std::size_t i = 0; i < np; ++i) alpha[i] = m.reliability.alpha(pb.points[i].id);
-    // ORB-SLAM3's local window is the covisible keyframes: mostly the last ones, whose wheel
-    // edges chain them to the fixed ones before.
-    spans = m.wheelSpans(t, fixed);
-  }
-
-  ceres::Problem::Options po;
-  po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(po);
-  const auto sigma = [&](const MapObservation& o) { return std::pow(pb.scale_factor, o.level); };
-  // A rejected point (alpha -inf) stays where it is (its weight far from the solution is zero:
-  // it would leave a singular block); its observations are judged below like the others'.
-  for (std::size_t k = 0; k < no; ++k) {
-    const MapObservation& o = pb.observations[k];
-    if (alpha[o.point] == -BarronKernel::kInfinity) continue;
-    const Eigen::Vector3d& xk = x[o.keyframe];
-    Eigen::Vector3d& Pi = P[o.point];
-    Eigen::Vector2d h;
-    if (!mono.predict(xk, Pi, &h)) continue;  // behind the camera: judged an outlier below
-    const bool is_stereo = o.u_right >= 0 && stereo;
-    const double gate = chi2Gate(is_stereo);
-    ceres::LossFunction* loss =
-        ceres_adapters::reprojectionLoss(m.params.huber, alpha[o.point], m.params.barron_scale, gate);
-    ceres::CostFunction* cost =
-        is_stereo ? static_cast<ceres::CostFunction*>(
-                        new ceres_adapters::Se2XyzCost<3>(*stereo, Eigen::Vector3d(o.u, o.v, o.u_right),
-                                                          stereo->sqrtInformation(xk, Pi, sigma(o), m.out_of_plane)))
-                  : new ceres_adapters::Se2XyzCost<2>(mono, Eigen::Vector2d(o.u, o.v),
-                                                      mono.sqrtInformation(xk, Pi, sigma(o), m.out_of_plane));
-    problem.AddResidualBlock(cost, loss, x[o.keyframe].data(), Pi.data());
-  }
-  // The wheel edges, and the calibration as a variable of those the wheels did not slip on (a
-  // slip would be taken for a scale error): a prior around zero and one around the last
-  // estimate, so that each local map refines what those before found (as the estimator's).
-  WheelCalibration c = cal.c;
-  const WheelCalibration& c_before = cal.c;
-  std::vector<ceres::ResidualBlockId> calibrating;
-  struct EdgeBetween {  // a wheel edge between keyframes a and b
-    WheelEdge edge;
-    std::size_t a, b;
-  };
-  // Counting: the calibrating edges ending after the last local map that refined c.
-  std::vector<EdgeBetween> fresh;
-  // Across a spin the first half goes without the wheel edge, and the second has it (Huber) only
-  // where the keyframes agree with it: there from the start, even under Huber, it dragged new
-  // keyframes along the spinning wheels where vision sees little (forward, on far points), as in
-  // the estimator's local BA (stereo combined seed 3: 0.85 % of the path, 0.10 % without).
-  std::vector<EdgeBetween> spin_edges;
-  for (const Impl::Span& sp : spans) {
-    try {
-      const WheelEdge edge(sp.delta);
-      if (sp.spin) {
-        spin_edges.push_back({edge, sp.a, sp.b});
-        continue;
-      }
-      if (sp.slipped) {
-        // Huber at the 99.9 % gate: the wheels claimed motion that did not happen.
-        problem.AddResidualBlock(new ceres_adapters::WheelCost(edge),
-                                 new ceres::HuberLoss(std::sqrt(kChi2WheelOutlier)), x[sp.a].data(), x[sp.b].data());
-      } else if (m.params.calibrate) {
-        // Quadratic: among walkers it is what holds the window to the static world.
-        calibrating.push_back(problem.AddResidualBlock(new ceres_adapters::WheelCalibratedCost(edge), nullptr,
-                                                       x[sp.a].data(), x[sp.b].data(), c.data()));
-        if (cal.counting && !(pb.keyframes[sp.b].t <= cal.t))  // NaN t: none yet
-          fresh.push_back({edge, sp.a, sp.b});
-      } else {
-        problem.AddResidualBlock(new ceres_adapters::WheelCost(edge), nullptr, x[sp.a].data(), x[sp.b].data());
-      }
-      ++out->wheel_edges;
-    } catch (const std::invalid_argument&) {  // degenerate covariance: no edge
-    }
-  }
-  Eigen::Matrix3d known = Eigen::Matrix3d::Zero();  // of c: the priors', then the fresh edges' added
-  if (!calibrating.empty())
-    known = cal.addPriors(&problem, c.data(), m.params.calibration_sigma,
-                          cal.counting ? m.params.calibration_drift : m.params.calibration_step,
-                          m.params.calibration_period, newest_t);
-  if (!calibrating.empty() && !m.params.calibrate_distance)
-    problem.SetManifold(c.data(), new ceres::SubsetManifold(3, {0}));  // the distance scale held
-  bool held = false;
-  for (std::size_t k = 0; k < nk; ++k) {
-    if (!problem.HasParameterBlock(x[k].data())) continue;
-    problem.SetManifold(x[k].data(), new ceres_adapters::SE2Manifold);
-    if (pb.keyframes[k].fixed) {
-      problem.SetParameterBlockConstant(x[k].data());
-      held = true;
-    }
-  }
-  if (held && !(stop && *stop)) {
-    ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_SCHUR;  // a few dozen keyframes: 3 each
-    so.max_num_iterations = 10;                  // ORB-SLAM3's
-    so.num_threads = 1;                          // tracking runs beside it
-    so.logging_type = ceres::SILENT;
-    StopFlag stop_flag(stop);
-    so.callbacks.push_back(&stop_flag);
-    ceres::Solver::Summary summary;
-    if (calibrating.empty() && spin_edges.empty()) {
-      ceres::Solve(so, &problem, &summary);
-    } else {
-      // The calibration learns only from local maps the wheels agree with once it is applied: a
-      // differential drive's calibration cannot explain a wheel edge left beyond its gate (a slip
-      // tracking missed, walkers pulling the map); then the second half keeps the last, fixed.
-      so.max_num_iterations = 5;
-      ceres::Solve(so, &problem, &summary);
-      bool agree = summary.IsSolutionUsable();
-      for (std::size_t k = 0; agree && k < calibrating.size(); ++k) {
-        double cost = 0.0;
-        agree = problem.EvaluateResidualBlock(calibrating[k], false, &cost, nullptr, nullptr) &&
-                2.0 * cost <= kChi2WheelOutlier;
-      }
-      if (!agree && !calibrating.empty()) {
-        c = c_before;
-        problem.SetParameterBlockConstant(c.data());
-      }
-      for (std::size_t k = 0; summary.IsSolutionUsable() && k < spin_edges.size(); ++k) {
-        const auto& [edge, a, b] = spin_edges[k];
-        if (wheelEdgeStrained(edge, x[a], x[b]) || !problem.HasParameterBlock(x[a].data()) ||
-            !problem.HasParameterBlock(x[b].data()))
-          continue;
-        problem.AddResidualBlock(new ceres_adapters::WheelCost(edge),
-                                 new ceres::HuberLoss(std::sqrt(kChi2WheelOutlier)), x[a].data(), x[b].data());
-        ++out->wheel_edges;
-      }
-      if (!(stop && *stop)) ceres::Solve(so, &problem, &summary);
-      out->calibrated = !calibrating.empty() && agree && summary.IsSolutionUsable() && c.allFinite();
-    }
-    ++m.local_maps_solved;
-  }
-  if (out->calibrated) {
+  const WindowSolution sol = solveWindow(mono, stereo ? &*stereo : nullptr, w, m.windowOptions(w.calibration, stop));
+  if (sol.ran) ++m.local_maps_solved;
+  out->wheel_edges = sol.wheel_edges;
+  out->calibrated = sol.calibrated;
+  if (sol.calibrated) {
     ++m.local_maps_calibrated;
-    for (const EdgeBetween& f : fresh) known += ceres_adapters::wheelCalibrationInformation(f.edge, x[f.a], x[f.b], c);
-    std::lock_guard<std::mutex> lock(m.mutex);
-    m.calibration.refined(c, newest_t, known);
+    m.learnCalibration(w, spans, sol);
   }
-
-  // Outliers as ORB-SLAM3 judges them: beyond the chi2 gate (eq. 10's covariance) or behind.
-  for (std::size_t k = 0; k < no; ++k) {
-    const MapObservation& o = pb.observations[k];
-    PoseObservation po_k;
-    po_k.P_w = P[o.point];
-    po_k.z = Eigen::Vector3d(o.u, o.v, o.u_right);
-    po_k.stereo = o.u_right >= 0 && stereo;
-    po_k.sigma_px = sigma(o);
-    double chi2 = 0.0;
-    out->outlier[k] = !whitenedChi2(mono, stereo ? &*stereo : nullptr, po_k, x[o.keyframe], m.out_of_plane, &chi2) ||
-                      !(chi2 <= chi2Gate(po_k.stereo));
-  }
+  out->outlier.assign(sol.outlier.begin(), sol.outlier.end());
   const Eigen::Isometry3d T_c0_w = m.params.T_b_c.inverse();
   // What was not in the problem (no edge: a keyframe neither seeing nor reached by the wheels, a
   // rejected point) stays as given.
   for (std::size_t k = 0; k < nk; ++k)
-    if (!pb.keyframes[k].fixed && problem.HasParameterBlock(x[k].data())) {
-      out->T_c_w[k] = m.cameraOf(x[k]);
+    if (sol.placed[k]) {
+      out->T_c_w[k] = m.cameraOf(sol.x_w_b[k]);
       out->placed[k] = 1;
     }
   for (std::size_t i = 0; i < np; ++i)
-    if (problem.HasParameterBlock(P[i].data())) {
-      out->P_w[i] = T_c0_w * P[i];
+    if (sol.solved[i]) {
+      out->P_w[i] = T_c0_w * sol.P_w[i];
       out->solved[i] = 1;
     }
   return true;
+}
+
+// The calibration a local map taught, with what it knew of it (counting: the priors' and the
+// information of the calibrated wheel edges ending after the last local map that refined it).
+void WheelInput::Impl::learnCalibration(const WindowProblem& w, const std::vector<Span>& spans,
+                                        const WindowSolution& sol) {
+  Eigen::Matrix3d known = sol.calibration_information;
+  const ceres_adapters::WheelCalibrationEstimate& cal = w.calibration;
+  double newest_t = -1e300;
+  for (const WindowKeyFrame& k : w.keyframes) newest_t = std::max(newest_t, k.t);
+  for (const Span& sp : spans) {
+    if (sp.spin || sp.slipped || !params.calibrate || !cal.counting || w.keyframes[sp.b].t <= cal.t) continue;
+    try {
+      const WheelEdge edge(sp.delta);
+      known += ceres_adapters::wheelCalibrationInformation(edge, sol.x_w_b[sp.a], sol.x_w_b[sp.b], sol.calibration);
+    } catch (const std::invalid_argument&) {  // degenerate covariance: no edge
+    }
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  calibration.refined(sol.calibration, newest_t, known);
 }
 
 bool WheelInput::optimisesEssentialGraphs() const { return optimisesLocalMaps() && impl_->params.essential_graph; }
