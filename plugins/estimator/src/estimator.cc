@@ -598,364 +598,380 @@ struct Estimator::Impl {
     return out;
   }
 
+  // One frame's tracking as it goes through the steps of processFrame.
+  struct FrameWork {
+    double t = 0;
+    std::optional<WheelDelta> delta;  // the wheels since the last frame (none: vo, or no readings)
+    SE2 predicted;                    // where they (or the motion model) put the robot
+    std::optional<WheelEdge> prior;   // their edge from the last frame (vw)
+    Features f;
+    cv::Mat raw_grey;
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();  // the pose being solved
+    std::vector<Match> matches;
+    std::vector<char> inlier, trusted;  // per match
+    std::vector<double> errors;         // per match: whitened error
+    int inliers = 0;
+    int candidates = 0;            // trusted matches
+    int to_place = 0;              // trusted inliers that place the frame
+    int vision_alone_placed = -1;  // trusted inliers of vision alone, when the slip check solved it
+    bool strained = false;         // vision strains the wheel edge from the last frame
+    bool was_slipping = false;
+    bool track_vision = false;  // mono: vision alone's own track is kept
+    bool visual = false, after_slip = false, contradicts_wheels = false;
+    int countTrusted(const std::vector<char>& in) const {
+      int n = 0;
+      for (std::size_t k = 0; k < in.size(); ++k) n += in[k] && trusted[k];
+      return n;
+    }
+  };
+
+  // The frame's pipeline: predict from the wheels, extract features (made ahead in the front
+  // end's thread), track the local map (match, solve, decide wheels or vision), relocalise when
+  // still blind, hold after a slip, then keep the pose and decide on a keyframe.
   void processFrame(const FrameInput& in, std::future<FrontEnd> front_end = {}) {
-    const double t = in.timestamp;
+    FrameWork w;
+    w.t = in.timestamp;
     // Labels that have come (threaded): applied now rather than at the next local BA, a keyframe
     // or more later, so that a walker's fresh landmarks stop counting as vision sooner.
     if (async) applyLabels(false);
-    waitForMappingLag(t);
-    // ---- predict ----
-    std::optional<WheelDelta> delta;
-    SE2 predicted;
-    if (has_last) {
-      std::lock_guard<std::mutex> lock(map_mutex);
-      const FrameRecord& prev = frames.back();
-      last_pose = kfPose(prev.ref_kf) * prev.T_kf_b;
-    }
-    if (has_last) {
-      delta = wheelDelta(last_t, t);
-      predicted = delta ? last_pose * delta->pose() : last_pose * (opt.mode == Mode::kVo ? velocity : SE2());
-    }
-    FrameRecord record{t, 0, SE2(), false};
+    waitForMappingLag(w.t);
+    predictFrame(&w);
+    FrameRecord record{w.t, 0, SE2(), false};
     if (opt.mode == Mode::kWheel) {
       {
         std::lock_guard<std::mutex> lock(map_mutex);
         if (final_pose.empty()) final_pose[0] = SE2();  // the world's origin
       }
       record.ref_kf = 0;
-      record.T_kf_b = predicted;
-      finishFrame(record, t);
+      record.T_kf_b = w.predicted;
+      finishFrame(record, w.t);
       return;
     }
-
-    // ---- features (made ahead, in the front end's thread) ----
     FrontEnd fe = front_end.valid() ? front_end.get() : frontEnd(in);
-    Features f = std::move(fe.f);
-    const cv::Mat& raw_grey = fe.raw_grey;
+    w.f = std::move(fe.f);
+    w.raw_grey = fe.raw_grey;
 
     std::unique_lock<std::mutex> lock(map_mutex);
     if (keyframes.empty() && final_pose.empty()) {
-      // ---- initialisation: the first keyframe at the world's origin, points from stereo or depth
-      // (metric: no visual initialisation to check against the wheels).
-      const int made = createKeyFrame(t, Eigen::Vector3d::Zero(), std::move(f), {}, raw_grey);
+      // The first keyframe at the world's origin, points from stereo or depth (metric: no visual
+      // initialisation to check against the wheels).
+      const int made = createKeyFrame(w.t, Eigen::Vector3d::Zero(), std::move(w.f), {}, w.raw_grey);
       record.ref_kf = next_kf - 1;
       record.visual = made > 0;
       lock.unlock();
-      queueKeyFrame(t);
-      finishFrame(record, t);
+      queueKeyFrame(w.t);
+      finishFrame(record, w.t);
       return;
     }
+    trackLocalMap(&w);
+    // Do this frame's own trusted landmarks say the wheels are wrong? Judged here, on the match
+    // set the slip check counted, before a relocalisation replaces it (see the blind keyframe).
+    w.contradicts_wheels = w.candidates >= opt.min_inliers / 2 && w.countTrusted(w.inlier) < 0.6 * w.candidates &&
+                           w.vision_alone_placed >= 0.6 * w.candidates;
+    if (!w.visual && !last_visual) relocaliseBlindFrame(&w);
+    holdAfterSlip(&w);
+    const bool make_kf = keepFrame(&w, &record);
+    lock.unlock();
+    if (make_kf) queueKeyFrame(w.t);
+    last_visual = w.visual;
+    finishFrame(record, w.t);
+  }
 
-    // ---- track the local map ----
+  // The pose the wheels predict from the last frame's (refreshed from its reference keyframe,
+  // which local BA may have moved), or without them the motion model's.
+  void predictFrame(FrameWork* w) {
+    if (!has_last) return;
+    {
+      std::lock_guard<std::mutex> lock(map_mutex);
+      const FrameRecord& prev = frames.back();
+      last_pose = kfPose(prev.ref_kf) * prev.T_kf_b;
+    }
+    w->delta = wheelDelta(last_t, w->t);
+    w->predicted = w->delta ? last_pose * w->delta->pose() : last_pose * (opt.mode == Mode::kVo ? velocity : SE2());
+  }
+
+  // Matches to the local map, the pose solved with the wheel edge, then the wheels against vision:
+  // the slip check and the wheel gate. (Map lock held.)
+  void trackLocalMap(FrameWork* w) {
     auto t2 = Clock::now();
-    Eigen::Vector3d x = predicted.vector();
-    std::vector<Match> matches = searchByProjection(f, x, last_visual ? 1.0 : 2.0);
-    if (static_cast<int>(matches.size()) < 2 * opt.min_inliers && !delta) {
-      matches = searchByProjection(f, x, 3.0);  // no wheels: the motion model may be far off
+    w->x = w->predicted.vector();
+    w->matches = searchByProjection(w->f, w->x, last_visual ? 1.0 : 2.0);
+    if (static_cast<int>(w->matches.size()) < 2 * opt.min_inliers && !w->delta) {
+      w->matches = searchByProjection(w->f, w->x, 3.0);  // no wheels: the motion model may be far off
     }
     timings.add("match", msSince(t2));
     auto t3 = Clock::now();
-    std::optional<WheelEdge> prior;
-    if (delta && opt.mode == Mode::kVw) {
+    if (w->delta && opt.mode == Mode::kVw) {
       try {
-        prior.emplace(*delta);
+        w->prior.emplace(*w->delta);
       } catch (const std::invalid_argument&) {  // degenerate covariance (no motion, no floor)
       }
     }
-    std::vector<char> inlier;
-    std::vector<double> errors;
-    int inliers = 0;
-    int vision_alone_placed = -1;  // trusted inliers of vision alone, when the slip check solved it
-    bool strained = false;         // vision strains the wheel edge from the last frame
-    const bool was_slipping = slipping;
+    w->was_slipping = slipping;
     slipping = false;  // until this frame says otherwise (a frame without matches ends a slip)
     // Vision counts only landmarks no label has called dynamic (in the slip test and for a visual
     // frame): a walker close in front fills the view with its own landmarks.
-    std::vector<char> trusted = trustedOf(matches);
-    const int candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
-    auto countTrusted = [&](const std::vector<char>& in) {
-      int n = 0;
-      for (std::size_t k = 0; k < in.size(); ++k) n += in[k] && trusted[k];
-      return n;
-    };
+    w->trusted = trustedOf(w->matches);
+    w->candidates = static_cast<int>(std::count(w->trusted.begin(), w->trusted.end(), 1));
     // Trusted inliers a frame needs for vision to place it. Coming back from the wheels, vision
     // must be convincingly back (the first frames after a blackout carry few, poorly placed
     // matches: one such frame put the pose 6 cm off).
-    const int to_place = (last_visual ? 1 : 3) * opt.min_inliers;
-    const bool track_vision = prior && rig.sensor == Sensor::kMono && !matches.empty();
-    if (!track_vision) {  // a gap in vision alone's track: it starts again
+    w->to_place = (last_visual ? 1 : 3) * opt.min_inliers;
+    w->track_vision = w->prior && rig.sensor == Sensor::kMono && !w->matches.empty();
+    if (!w->track_vision) {  // a gap in vision alone's track: it starts again
       vision_track.clear();
       stall_run = 0;
     }
-    if (!matches.empty()) {
-      inliers = optimisePose(f, matches, prior, last_pose.vector(), &x, &inlier, &errors);
-      // Slip check (rvwo::decideSlip): the wheels' motion against vision alone. When the wheels
-      // spin in place (or skid) every static landmark disagrees with them, so vision alone,
-      // started where the robot was, explains clearly more landmarks: it wins and the wheel edge
-      // is dropped for this frame. Among walkers the wheels side with the static landmarks and
-      // keep the pose.
-      strained = prior && wheelEdgeStrained(*prior, last_pose.vector(), x);
-      // Mono solves vision alone every frame: its own track shows wheels that stall (wheelsStall),
-      // which mono's counts of one frame cannot.
-      Eigen::Vector3d x_vision = last_pose.vector();
-      std::vector<char> inlier_v;
-      std::vector<double> errors_v;
-      int inliers_v = 0;
-      const auto solveVisionAlone = [&] {
-        inliers_v = optimisePose(f, matches, std::nullopt, last_pose.vector(), &x_vision, &inlier_v, &errors_v);
-      };
-      bool stalled = false;
-      if (track_vision) {
-        solveVisionAlone();
-        while (!vision_track.empty() && vision_track.front().first < t - kStallStretch - 1e-6) {
-          vision_track.pop_front();
-        }
-        if (countTrusted(inlier_v) < to_place) {
-          vision_track.clear();  // vision alone did not place this frame: the track starts again
-          stall_run = 0;
-        } else {
-          bool stall = false;
-          if (!vision_track.empty() && t - vision_track.front().first >= 0.75 * kStallStretch) {
-            if (const std::optional<WheelDelta> stretch = wheelDelta(vision_track.front().first, t)) {
-              const SE2 T_vision = SE2::fromVector(vision_track.front().second).inverse() * SE2::fromVector(x_vision);
-              stall = wheelsStall(*stretch, T_vision);
-            }
-          }
-          stall_run = stall ? stall_run + 1 : 0;
-          vision_track.emplace_back(t, x_vision);
-        }
-        // ... and this frame too saw less than half of its own claim: a stretch over a stall's end
-        // still reads as stalled for up to half its length once the robot has driven on, and vision
-        // alone then overruled wheels that were right again (4 frames after a 1 s mono slip: 2.4 cm).
-        stalled = stall_run >= kStallFrames &&
-                  stallSeen(*delta, last_pose.inverse() * SE2::fromVector(x_vision)) < kStallRatio;
-      }
-      if (prior && (slipWorthChecking(was_slipping, strained, matches.size(), inliers) || stalled)) {
-        if (!track_vision) solveVisionAlone();
-        // Counting only landmarks no label has called dynamic: a walker close by, freshly mapped,
-        // once explained 376 of 422 matches and took vision alone 25 cm off in four frames.
-        SlipEvidence e;
-        e.wheels = &*delta;
-        e.T_b0_b1_fused = last_pose.inverse() * SE2::fromVector(x);
-        e.T_b0_b1_vision = last_pose.inverse() * SE2::fromVector(x_vision);
-        e.fused_inliers = countTrusted(inlier);
-        e.vision_inliers = countTrusted(inlier_v);
-        vision_alone_placed = e.vision_inliers;
-        e.candidates = candidates;
-        e.strained = strained;
-        e.stalled = stalled;
-        e.was_slipping = was_slipping;
-        e.from_vision_alone = was_slipping;  // the previous frame's pose was vision alone's
-        // Only vision that would place the frame overrules the wheels: mono, blind in a turn among
-        // walkers and bumps, called 5 and 12 frames slips that vision could not place, and the
-        // pose then held still for the 2 s after, while the robot turned 12 deg (threaded mono
-        // combined, 41.7 and 45.3 s).
-        e.min_to_go_on = to_place;
-        e.min_to_start = std::max(to_place, static_cast<int>(std::ceil(opt.slip_min_inliers * opt.min_inliers)));
-        // Mono: a slip that starts farther back than this frame's claim, its tolerance and a skid
-        // says the frames before took the wheels' side; so strong a claim needs vision that places
-        // the frame firmly. Among bumps, mono's vision alone on 55-78 trusted landmarks put single
-        // frames 9-17 cm back while the wheels claimed 1 cm on; each such slip cost the map that
-        // much (threaded mono combined, 41-43 s: 6 of 16 runs lost 6-12 % of the travel over
-        // 40-45 s; with this bar 1 of 16, 8.6 %). Slips caught late had 141-278.
-        if (track_vision && !was_slipping && missBeyondTheClaim(*delta, e.T_b0_b1_vision)) {
-          e.min_to_start = std::max(e.min_to_start, 5 * opt.min_inliers);
-        }
-        if (decideSlip(e)) {
-          slipping = true;
-          x = x_vision;
-          inliers = inliers_v;
-          inlier.swap(inlier_v);
-          errors.swap(errors_v);
-          ++slip_frames;
-          last_slip_t = t;
-          // A hold goes on with the slip it held: vision back for a frame or two between blind
-          // stretches, a walker passing in front of the spinning robot, is the same slip, and the
-          // blindness after it holds again (24 s combined cut, 20.6-21.4 s: counted as a new
-          // slip of 2 frames, the next blind frames followed the wheels 0.13 rad round a spin).
-          slip_run = (was_slipping || holding) ? slip_run + 1 : 1;
-          std::lock_guard<std::mutex> slock(slip_mutex);
-          slip_marks.push_back({t, slipIsSpin(*delta, e.T_b0_b1_vision)});
-        }
-      }
-      // The wheel gate (Estimator.WheelGate; adaptive kernel, stereo and RGB-D: rvwo::solveFromTheWheels).
-      // Not when vision comes back after frames on the wheels: there it corrects their drift (the
-      // ONNX network threaded, missing the walkers, is on the wheels for some 300 frames: four runs
-      // gave 0.25-0.77 % of the path with the gate held there, six 0.10-0.34 % now, six 0.09-0.91 %
-      // without the gate).
-      PlanarPoseResult gated;
-      if (opt.wheel_gate && opt.kernel == KernelChoice::kAdaptive && rig.sensor != Sensor::kMono && strained &&
-          !slipping && last_visual &&
-          solveFromTheWheels(mono_edge, stereo_edge ? &*stereo_edge : nullptr, poseObservations(f, matches),
-                             WheelPrior{&*prior, last_pose.vector()}, poseOptions(), predicted.vector(), trusted,
-                             to_place, &x, &gated)) {
-        inliers = gated.inliers;
-        inlier.swap(gated.inlier);
-        errors.swap(gated.error);
-        ++counters.wheel_gated;
-      }
+    if (!w->matches.empty()) {
+      w->inliers = optimisePose(w->f, w->matches, w->prior, last_pose.vector(), &w->x, &w->inlier, &w->errors);
+      w->strained = w->prior && wheelEdgeStrained(*w->prior, last_pose.vector(), w->x);
+      checkSlip(w);
+      applyWheelGate(w);
     }
     timings.add("pose", msSince(t3));
     // (Trusted inliers only: following a walker's landmarks is following the walker.)
-    const int trusted_inliers = countTrusted(inlier);
-    bool visual = trusted_inliers >= to_place;
-    // Do this frame's own trusted landmarks say the wheels are wrong? Judged here, on the match
-    // set the slip check counted, before a relocalisation replaces it (see the blind keyframe).
-    const bool contradicts_wheels = candidates >= opt.min_inliers / 2 && trusted_inliers < 0.6 * candidates &&
-                                    vision_alone_placed >= 0.6 * candidates;
-    // Still blind after a stretch on the wheels: their prediction may be too far off for the
-    // projection search; the map in memory may still be in view.
-    if (!visual && !last_visual) {
-      auto t5 = Clock::now();
-      if (const std::optional<Eigen::Vector3d> x_map = relocalise(f)) {
-        x = *x_map;
-        // Only trusted landmarks place the frame: with no wheel prior here, walkers' landmarks
-        // that a label has seen (still inliers under their kernel) would pull the pose along
-        // (dynamic scenario cut to 30 s, 9.6 s, with more walker points given depth: 383 of 458
-        // inliers on walkers, the pose 7.6 cm off).
-        matches = searchByProjection(f, x, 1.0);
-        matches.erase(
-            std::remove_if(matches.begin(), matches.end(), [&](const Match& m) { return !isTrusted(m.point); }),
-            matches.end());
-        inliers = optimisePose(f, matches, std::nullopt, x, &x, &inlier, &errors);
-        trusted = trustedOf(matches);
-        // Off the wheels' way, only overwhelming agreement: the last frame they placed may be the
-        // one off (the 24 s combined cut, 21.47 s: a fused frame 0.17 rad off in a spin, righted
-        // by 315 landmarks), while walkers no label marks gave wrong ones of 60 to 179.
-        // Fewer than 3 x MinInliers in a frame, but 4 x over a run of frames that agree where each
-        // frame's wheel motion allows: walkers covering most of the view leave 20-50 static
-        // landmarks, and each frame's relocalisation is another set of them (RGB-D combined seed
-        // 3, 61 s: 17-34 a frame placed the robot, standing in a slip, to within a centimetre
-        // frame after frame). That scenario's frames on the wheels alone: 1476 -> 772.
-        const int placed = countTrusted(inlier);
-        int run = 0;  // trusted inliers summed over the agreeing relocalisations ending here
-        if (placed >= opt.min_inliers) {
-          const bool agrees =
-              relocalised_run.placed > 0 && relocalised_run.t == last_t && delta &&
-              onTheClaimedWay(*delta, SE2::fromVector(relocalised_run.x).inverse() * SE2::fromVector(x));
-          run = (agrees ? relocalised_run.placed : 0) + placed;
-          relocalised_run = {t, x, run};
+    w->visual = w->countTrusted(w->inlier) >= w->to_place;
+  }
+
+  // Mono: vision alone's own track over the last kStallStretch, and whether it shows wheels that
+  // stall (wheelsStall) kStallFrames in a row, this frame too seeing less than half its claim (a
+  // stretch over a stall's end still reads as stalled for up to half its length once the robot
+  // has driven on: 4 frames after a 1 s mono slip, 2.4 cm).
+  bool trackVisionAlone(const FrameWork& w, const Eigen::Vector3d& x_vision, const std::vector<char>& inlier_v) {
+    while (!vision_track.empty() && vision_track.front().first < w.t - kStallStretch - 1e-6) {
+      vision_track.pop_front();
+    }
+    if (w.countTrusted(inlier_v) < w.to_place) {
+      vision_track.clear();  // vision alone did not place this frame: the track starts again
+      stall_run = 0;
+    } else {
+      bool stall = false;
+      if (!vision_track.empty() && w.t - vision_track.front().first >= 0.75 * kStallStretch) {
+        if (const std::optional<WheelDelta> stretch = wheelDelta(vision_track.front().first, w.t)) {
+          const SE2 T_vision = SE2::fromVector(vision_track.front().second).inverse() * SE2::fromVector(x_vision);
+          stall = wheelsStall(*stretch, T_vision);
         }
-        const bool enough = placed >= 3 * opt.min_inliers || (run > placed && run >= 4 * opt.min_inliers);
-        visual = enough && (placed >= 10 * opt.min_inliers || onTheWheelsWay(x, t));
-        if (visual) ++counters.relocalisations;
       }
-      timings.add("relocalise", msSince(t5));
+      stall_run = stall ? stall_run + 1 : 0;
+      vision_track.emplace_back(w.t, x_vision);
     }
-    // Blind right after a slip, the wheels are the last to trust: the pose stays where vision
-    // left it (for at most Estimator.SlipHold), and its frames count as the spin they hold.
-    // (Vision's last motion, extrapolated instead, once carried a slip frame's few centimetres
-    // for two seconds: a 3.8 m error, combined scenario, threaded.) Only a blind stretch that
-    // starts in the slip holds: once vision has seen the robot drive on, the slip is over (a hold
-    // begun 1.3 s after a 3-frame slip over a bump kept the pose still for 0.7 s of driving, then
-    // again after the slip that the held pose made: threaded mono combined, 45.2 s, 2.1 %).
-    const bool after_slip = !visual && !slipping && t - last_slip_t <= opt.slip_hold &&
-                            slip_run >= opt.slip_hold_min_frames && (holding || was_slipping);
-    holding = after_slip;
-    if (after_slip) {
-      std::lock_guard<std::mutex> slock(slip_mutex);
-      // Held still while the wheels went on, as far as the map knows: a spin, whose wheel edge sits
-      // out local BA's first round and comes back in the second only if vision's keyframes agree
-      // with it. (Marked as no spin, the edges across a hold kept Huber kernels from the first
-      // round, and in the 24 s combined cut they dragged the two keyframes the slip had made,
-      // on 94 and 144 landmarks, 0.58 m along the spinning wheels; their frames jumped with them.)
-      slip_marks.push_back({t, true});
+    return stall_run >= kStallFrames &&
+           stallSeen(*w.delta, last_pose.inverse() * SE2::fromVector(x_vision)) < kStallRatio;
+  }
+
+  // The slip check (rvwo::decideSlip): the wheels' motion against vision alone's, started where
+  // the robot was. When the wheels spin in place (or skid) every static landmark disagrees with
+  // them, so vision alone explains clearly more: it wins and the wheel edge is dropped for this
+  // frame. Among walkers the wheels side with the static landmarks and keep the pose. Mono solves
+  // vision alone every frame: its own track shows wheels that stall, which mono's counts of one
+  // frame cannot. (Map lock held.)
+  void checkSlip(FrameWork* w) {
+    Eigen::Vector3d x_vision = last_pose.vector();
+    std::vector<char> inlier_v;
+    std::vector<double> errors_v;
+    int inliers_v = 0;
+    const auto solveVisionAlone = [&] {
+      inliers_v = optimisePose(w->f, w->matches, std::nullopt, last_pose.vector(), &x_vision, &inlier_v, &errors_v);
+    };
+    bool stalled = false;
+    if (w->track_vision) {
+      solveVisionAlone();
+      stalled = trackVisionAlone(*w, x_vision, inlier_v);
     }
-    const SE2 T_w_b = visual ? SE2::fromVector(x) : after_slip ? last_pose : predicted;
-    std::vector<std::int64_t> point_of(f.size(), -1);
-    if (visual) {
-      for (std::size_t k = 0; k < matches.size(); ++k) {
-        if (!inlier[k]) continue;
-        MapPoint& p = points.at(matches[k].point);
+    if (!w->prior || !(slipWorthChecking(w->was_slipping, w->strained, w->matches.size(), w->inliers) || stalled))
+      return;
+    if (!w->track_vision) solveVisionAlone();
+    // Counting only landmarks no label has called dynamic: a walker close by, freshly mapped, once
+    // explained 376 of 422 matches and took vision alone 25 cm off in four frames.
+    SlipEvidence e;
+    e.wheels = &*w->delta;
+    e.T_b0_b1_fused = last_pose.inverse() * SE2::fromVector(w->x);
+    e.T_b0_b1_vision = last_pose.inverse() * SE2::fromVector(x_vision);
+    e.fused_inliers = w->countTrusted(w->inlier);
+    e.vision_inliers = w->countTrusted(inlier_v);
+    w->vision_alone_placed = e.vision_inliers;
+    e.candidates = w->candidates;
+    e.strained = w->strained;
+    e.stalled = stalled;
+    e.was_slipping = w->was_slipping;
+    e.from_vision_alone = w->was_slipping;  // the previous frame's pose was vision alone's
+    // Only vision that would place the frame overrules the wheels (mono, blind in a turn among
+    // walkers and bumps, called frames slips that vision could not place).
+    e.min_to_go_on = w->to_place;
+    e.min_to_start = std::max(w->to_place, static_cast<int>(std::ceil(opt.slip_min_inliers * opt.min_inliers)));
+    // Mono: a slip that starts farther back than this frame's claim, its tolerance and a skid says
+    // the frames before took the wheels' side; so strong a claim needs vision that places the
+    // frame firmly (docs/decisions/0009).
+    if (w->track_vision && !w->was_slipping && missBeyondTheClaim(*w->delta, e.T_b0_b1_vision)) {
+      e.min_to_start = std::max(e.min_to_start, 5 * opt.min_inliers);
+    }
+    if (!decideSlip(e)) return;
+    slipping = true;
+    w->x = x_vision;
+    w->inliers = inliers_v;
+    w->inlier.swap(inlier_v);
+    w->errors.swap(errors_v);
+    ++slip_frames;
+    last_slip_t = w->t;
+    // A hold goes on with the slip it held: vision back for a frame or two between blind
+    // stretches, a walker passing in front of the spinning robot, is the same slip, and the
+    // blindness after it holds again (docs/decisions/0003).
+    slip_run = (w->was_slipping || holding) ? slip_run + 1 : 1;
+    std::lock_guard<std::mutex> slock(slip_mutex);
+    slip_marks.push_back({w->t, slipIsSpin(*w->delta, e.T_b0_b1_vision)});
+  }
+
+  // The wheel gate (Estimator.WheelGate; adaptive kernel, stereo and RGB-D:
+  // rvwo::solveFromTheWheels; docs/decisions/0002). Not when vision comes back after frames on
+  // the wheels: there it corrects their drift. (Map lock held.)
+  void applyWheelGate(FrameWork* w) {
+    PlanarPoseResult gated;
+    if (opt.wheel_gate && opt.kernel == KernelChoice::kAdaptive && rig.sensor != Sensor::kMono && w->strained &&
+        !slipping && last_visual &&
+        solveFromTheWheels(mono_edge, stereo_edge ? &*stereo_edge : nullptr, poseObservations(w->f, w->matches),
+                           WheelPrior{&*w->prior, last_pose.vector()}, poseOptions(), w->predicted.vector(), w->trusted,
+                           w->to_place, &w->x, &gated)) {
+      w->inliers = gated.inliers;
+      w->inlier.swap(gated.inlier);
+      w->errors.swap(gated.error);
+      ++counters.wheel_gated;
+    }
+  }
+
+  // Still blind after a stretch on the wheels: their prediction may be too far off for the
+  // projection search, the map in memory may still be in view. Only trusted landmarks place the
+  // frame (walkers' landmarks a label has seen, still inliers under their kernel, would pull the
+  // pose along). Believed off the wheels' way only on overwhelming agreement: fewer than 3 x
+  // MinInliers in a frame, but 4 x over a run of frames that agree where each frame's wheel motion
+  // allows (walkers covering most of the view leave 20-50 static landmarks, each frame's
+  // relocalisation another set of them). (Map lock held.)
+  void relocaliseBlindFrame(FrameWork* w) {
+    auto t5 = Clock::now();
+    if (const std::optional<Eigen::Vector3d> x_map = relocalise(w->f)) {
+      w->x = *x_map;
+      w->matches = searchByProjection(w->f, w->x, 1.0);
+      w->matches.erase(
+          std::remove_if(w->matches.begin(), w->matches.end(), [&](const Match& m) { return !isTrusted(m.point); }),
+          w->matches.end());
+      w->inliers = optimisePose(w->f, w->matches, std::nullopt, w->x, &w->x, &w->inlier, &w->errors);
+      w->trusted = trustedOf(w->matches);
+      const int placed = w->countTrusted(w->inlier);
+      int run = 0;  // trusted inliers summed over the agreeing relocalisations ending here
+      if (placed >= opt.min_inliers) {
+        const bool agrees =
+            relocalised_run.placed > 0 && relocalised_run.t == last_t && w->delta &&
+            onTheClaimedWay(*w->delta, SE2::fromVector(relocalised_run.x).inverse() * SE2::fromVector(w->x));
+        run = (agrees ? relocalised_run.placed : 0) + placed;
+        relocalised_run = {w->t, w->x, run};
+      }
+      const bool enough = placed >= 3 * opt.min_inliers || (run > placed && run >= 4 * opt.min_inliers);
+      w->visual = enough && (placed >= 10 * opt.min_inliers || onTheWheelsWay(w->x, w->t));
+      if (w->visual) ++counters.relocalisations;
+    }
+    timings.add("relocalise", msSince(t5));
+  }
+
+  // Blind right after a slip, the wheels are the last to trust: the pose stays where vision left
+  // it (for at most Estimator.SlipHold), and its frames count as the spin they hold. Only a blind
+  // stretch that starts in the slip holds: once vision has seen the robot drive on, the slip is
+  // over (docs/decisions/0009).
+  void holdAfterSlip(FrameWork* w) {
+    w->after_slip = !w->visual && !slipping && w->t - last_slip_t <= opt.slip_hold &&
+                    slip_run >= opt.slip_hold_min_frames && (holding || w->was_slipping);
+    holding = w->after_slip;
+    if (!w->after_slip) return;
+    // Held still while the wheels went on, as far as the map knows: a spin, whose wheel edge sits
+    // out local BA's first round and comes back in the second only if vision's keyframes agree
+    // with it (docs/decisions/0003).
+    std::lock_guard<std::mutex> slock(slip_mutex);
+    slip_marks.push_back({w->t, true});
+  }
+
+  // The frame's pose (vision's, held, or the wheels'), its landmarks' reliabilities (eq. 6), and a
+  // keyframe if one is due. Returns whether one was made. (Map lock held.)
+  bool keepFrame(FrameWork* w, FrameRecord* record) {
+    const SE2 T_w_b = w->visual ? SE2::fromVector(w->x) : w->after_slip ? last_pose : w->predicted;
+    std::vector<std::int64_t> point_of(w->f.size(), -1);
+    if (w->visual) {
+      for (std::size_t k = 0; k < w->matches.size(); ++k) {
+        if (!w->inlier[k]) continue;
+        MapPoint& p = points.at(w->matches[k].point);
         ++p.found;
-        point_of[matches[k].feature] = static_cast<std::int64_t>(p.id);
+        point_of[w->matches[k].feature] = static_cast<std::int64_t>(p.id);
       }
     }
     // Eq. 6: every matched landmark's latest whitened error (outliers included: that is the point).
-    if (visual && opt.kernel == KernelChoice::kAdaptive) {
-      for (std::size_t k = 0; k < matches.size(); ++k) reliability.observe(matches[k].point, std::nullopt, errors[k]);
+    if (w->visual && opt.kernel == KernelChoice::kAdaptive) {
+      for (std::size_t k = 0; k < w->matches.size(); ++k)
+        reliability.observe(w->matches[k].point, std::nullopt, w->errors[k]);
     }
-    if (visual && !last_visual && has_last) spreadCorrection(T_w_b * predicted.inverse(), t);
+    if (w->visual && !last_visual && has_last) spreadCorrection(T_w_b * w->predicted.inverse(), w->t);
     // Features matched to an untrusted landmark (adaptive kernel): a walker's, or one whose labels
     // are still to come. They neither ask for a keyframe (a walker close in front is forever
     // "close and untracked") nor give it a second, fresh landmark of the same walker.
-    std::vector<char> on_walker(f.size(), 0);
+    std::vector<char> on_walker(w->f.size(), 0);
     if (opt.kernel == KernelChoice::kAdaptive) {
-      for (std::size_t k = 0; k < matches.size(); ++k) on_walker[matches[k].feature] |= !trusted[k];
+      for (std::size_t k = 0; k < w->matches.size(); ++k) on_walker[w->matches[k].feature] |= !w->trusted[k];
     }
     ++frames_since_kf;
     const std::uint64_t ref = std::prev(keyframes.end())->first;
     const KeyFrame& ref_kf = keyframes.at(ref);
-    // ---- keyframe? ----
-    int close_tracked = 0, close_untracked = 0;
-    const double close = opt.max_depth_baselines * rig.baseline;
-    for (std::size_t i = 0; i < f.size(); ++i) {
-      if (f.depth[i] <= 0 || f.depth[i] > close || (point_of[i] < 0 && on_walker[i])) continue;
-      (point_of[i] >= 0 ? close_tracked : close_untracked)++;
-    }
-    bool make_kf = false;
-    if (visual) {
-      wheels_doubted_t = -1e300;
-      // The close rule (ORB-SLAM's) not in a slip: the view barely changes while the wheels spin,
-      // and what is close and new is walkers; a keyframe every frame shrank local BA's window of 8
-      // to a quarter second, which the slip's wheel edges dragged along (RGB-D combined, 60 s:
-      // 0.77 m while the robot stood still; 0.835 -> 0.22 % of the path, deterministic). Nor
-      // while vision strains the wheel edge from the last frame, a slip not (yet) caught: each
-      // keyframe made at the fused pose, which the wheels pulled along, moved the map with them,
-      // and vision alone then saw the robot move as they claimed (RGB-D combined seed 3, 60-62.5
-      // s, escorts leaving 30-50 static landmarks: a keyframe every frame, 1 m of travel where
-      // there was none; 1.415 -> 0.158 % of the path, deterministic).
-      make_kf = frames_since_kf >= opt.keyframe_max_frames ||
-                (frames_since_kf >= 2 && inliers < opt.keyframe_ratio * ref_kf.tracked) ||
-                (!slipping && !strained && close_tracked < 100 && close_untracked > 70);
-    } else {
-      // Vision lost: once there is texture again, a keyframe at the wheels' pose starts the map
-      // anew from there (no jump); wheel edges tie it to the keyframes before.
-      if (rig.sensor == Sensor::kMono) {
-        // Mono: once the wheels have moved the camera far enough for a baseline.
-        make_kf =
-            (T_w_c(T_w_b.vector()).translation() - T_w_c(ref_kf.x).translation()).norm() >= opt.mono_min_baseline &&
-            static_cast<int>(f.size()) >= 4 * opt.min_inliers;
-      } else {
-        const int with_depth =
-            static_cast<int>(std::count_if(f.depth.begin(), f.depth.end(), [](float d) { return d > 0; }));
-        // (Not while holding vision's motion after a slip: what is in view then is no map.)
-        // Nor while the landmarks in view say the wheels are wrong: walkers covering most of the
-        // view leave too few for vision to place the frame, yet most of the static ones left agree
-        // on a pose of their own, away from the wheels', the way a slip makes them; a map
-        // restarted there is the slip's (RGB-D combined seed 3, 60 s: a slip behind escorts, the
-        // map restarted every third frame at the wheels' pose). (Vision alone must agree with
-        // itself: static landmarks hidden behind walkers, matched to the walkers' features,
-        // disagree with the wheels and with each other.) The doubt holds until vision places a
-        // frame, or for Estimator.SlipHold after the last such frame: as the wheels run away from
-        // the map its landmarks leave the projection search, which then contradicts nothing, and
-        // relocalisation is left to find the map again.
-        if (contradicts_wheels) wheels_doubted_t = t;
-        const bool doubted = t - wheels_doubted_t <= opt.slip_hold;
-        make_kf = frames_since_kf >= 3 && with_depth >= 4 * opt.min_inliers && !after_slip && !doubted;
-      }
-    }
+    const bool make_kf = keyFrameDue(*w, T_w_b, point_of, on_walker, ref_kf);
     if (make_kf) {
       auto t4 = Clock::now();
       std::vector<std::pair<int, std::uint64_t>> label_only;
-      for (std::size_t k = 0; visual && k < matches.size(); ++k) {
-        if (!inlier[k]) label_only.emplace_back(matches[k].feature, matches[k].point);
+      for (std::size_t k = 0; w->visual && k < w->matches.size(); ++k) {
+        if (!w->inlier[k]) label_only.emplace_back(w->matches[k].feature, w->matches[k].point);
       }
-      createKeyFrame(t, T_w_b.vector(), std::move(f), point_of, raw_grey, inliers, on_walker);
+      createKeyFrame(w->t, T_w_b.vector(), std::move(w->f), point_of, w->raw_grey, w->inliers, on_walker);
       keyframes.at(next_kf - 1).label_only = std::move(label_only);
-      record.ref_kf = next_kf - 1;
-      record.T_kf_b = SE2();
+      record->ref_kf = next_kf - 1;
+      record->T_kf_b = SE2();
       timings.add("keyframe", msSince(t4));
     } else {
-      record.ref_kf = ref;
-      record.T_kf_b = SE2::fromVector(ref_kf.x).inverse() * T_w_b;
+      record->ref_kf = ref;
+      record->T_kf_b = SE2::fromVector(ref_kf.x).inverse() * T_w_b;
     }
-    record.visual = visual;
-    record.slip = visual && slipping;
-    lock.unlock();
-    if (make_kf) queueKeyFrame(t);
-    last_visual = visual;
-    finishFrame(record, t);
+    record->visual = w->visual;
+    record->slip = w->visual && slipping;
+    return make_kf;
+  }
+
+  // ORB-SLAM's keyframe rules with RVWO's exceptions (docs/estimator.md, rule 11). Visual: every
+  // Estimator.KeyFrameMaxFrames frames, when the reference keyframe's points are less than
+  // Estimator.KeyFrameRatio tracked, or for close untracked features, but not in a slip nor while
+  // vision strains the wheel edge (a keyframe made at a pose the wheels pulled along moves the map
+  // with them). Blind: a keyframe at the wheels' pose restarts the map once there is texture,
+  // unless it holds after a slip or the landmarks in view doubt the wheels. (Map lock held.)
+  bool keyFrameDue(const FrameWork& w, const SE2& T_w_b, const std::vector<std::int64_t>& point_of,
+                   const std::vector<char>& on_walker, const KeyFrame& ref_kf) {
+    int close_tracked = 0, close_untracked = 0;
+    const double close = opt.max_depth_baselines * rig.baseline;
+    for (std::size_t i = 0; i < w.f.size(); ++i) {
+      if (w.f.depth[i] <= 0 || w.f.depth[i] > close || (point_of[i] < 0 && on_walker[i])) continue;
+      (point_of[i] >= 0 ? close_tracked : close_untracked)++;
+    }
+    if (w.visual) {
+      wheels_doubted_t = -1e300;
+      return frames_since_kf >= opt.keyframe_max_frames ||
+             (frames_since_kf >= 2 && w.inliers < opt.keyframe_ratio * ref_kf.tracked) ||
+             (!slipping && !w.strained && close_tracked < 100 && close_untracked > 70);
+    }
+    if (rig.sensor == Sensor::kMono) {
+      // Mono: once the wheels have moved the camera far enough for a baseline.
+      return (T_w_c(T_w_b.vector()).translation() - T_w_c(ref_kf.x).translation()).norm() >= opt.mono_min_baseline &&
+             static_cast<int>(w.f.size()) >= 4 * opt.min_inliers;
+    }
+    const int with_depth =
+        static_cast<int>(std::count_if(w.f.depth.begin(), w.f.depth.end(), [](float d) { return d > 0; }));
+    // Not while the landmarks in view say the wheels are wrong: walkers covering most of the view
+    // leave too few for vision to place the frame, yet most of the static ones left agree on a pose
+    // of their own, away from the wheels', the way a slip makes them; a map restarted there is the
+    // slip's. The doubt holds until vision places a frame, or for Estimator.SlipHold after the last
+    // such frame (as the wheels run away from the map its landmarks leave the projection search).
+    if (w.contradicts_wheels) wheels_doubted_t = w.t;
+    const bool doubted = w.t - wheels_doubted_t <= opt.slip_hold;
+    return frames_since_kf >= 3 && with_depth >= 4 * opt.min_inliers && !w.after_slip && !doubted;
   }
 
   // A relocalisation ends a blind stretch where the wheels may have been wrong (they spun while
