@@ -106,276 +106,325 @@ struct RunResult {
   double ate[4] = {0, 0, 0, 0};
 };
 
-RunResult runOnce(unsigned run_seed, double seconds, int n_walkers, const std::string& plot_path) {
-  std::mt19937_64 rng(run_seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> g(0, 1);
+enum class Mode { kVoHuber, kVwHuber, kVwAdaptive };
 
-  // ---- scene ----
-  std::vector<Landmark> landmarks;
-  for (int i = 0; i < 1600; ++i) {  // walls of a 12 x 9 m room
-    const double s = u(rng), z = 0.1 + 2.4 * u(rng);
-    const int wall = i % 4;
-    Eigen::Vector3d p = wall == 0   ? Eigen::Vector3d(-6 + 12 * s, -4.5, z)
-                        : wall == 1 ? Eigen::Vector3d(6, -4.5 + 9 * s, z)
-                        : wall == 2 ? Eigen::Vector3d(-6 + 12 * s, 4.5, z)
-                                    : Eigen::Vector3d(-6, -4.5 + 9 * s, z);
-    landmarks.push_back({p, -1});
-  }
-  std::vector<Walker> people;
-  for (int w = 0; w < n_walkers; ++w) {
-    const double x = -3 + 6 * u(rng);
-    people.push_back(
-        {Eigen::Vector2d(x, -3.5), Eigen::Vector2d(x + 2 * u(rng) - 1, 3.5), 0.6 + 0.6 * u(rng), 7 * u(rng)});
-    for (int k = 0; k < 60; ++k) {  // on a 0.25 m cylinder, 0.2 to 1.8 m up
-      const double a = 2 * kPi * u(rng);
-      landmarks.push_back({Eigen::Vector3d(0.25 * std::cos(a), 0.25 * std::sin(a), 0.2 + 1.6 * u(rng)), w});
+// One run: the scene, the wheels and the keyframes' observations simulated from one seed (in that
+// order, so that the random draws are the run's), then solved.
+class DemoRun {
+ public:
+  DemoRun(unsigned seed, double seconds, int n_walkers)
+      : rng_(seed), edge_(camera_, cameraMount(), kBf), seconds_(seconds), slip_from_(0.4 * seconds) {
+    makeScene(n_walkers);
+    simulateWheels();
+    observe();
+    wheel_only_.push_back(truth_[0]);  // dead reckoning from the start
+    for (std::size_t k = 0; k + 1 < truth_.size(); ++k) {
+      deltas_.push_back(odometry_.integrate(kf_time_[k], kf_time_[k + 1]));
+      wheel_only_.push_back(wheel_only_.back() * deltas_.back().pose());
     }
   }
 
-  // ---- camera ----
-  const rvwo::PinholeCamera camera(400, 400, 320, 240);
-  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
-  T_b_c.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  T_b_c.translation() << 0.15, 0.0, 0.5;
-  const double bf = 0.12 * 400;
-  const rvwo::Se2XyzStereoEdge edge(camera, T_b_c, bf);
-
-  // ---- wheels: 50 Hz encoders from the true motion, noisy, slipping at 40 % of the run ----
-  rvwo::DiffDriveParams drive;
-  rvwo::WheelNoise noise;
-  noise.sigma_wheel = 0.02;
-  rvwo::WheelOdometry odometry(noise);
-  const double dt = 0.02, slip_from = 0.4 * seconds, slip_to = slip_from + 2.0;
-  double ql = 0, qr = 0;
-  std::vector<double> clock;  // true time of each keyframe; the robot stands still during the slip
-  double robot_time = 0;      // arc-length clock of the path
-  odometry.addWheelAngles(0, 0, 0, drive);
-  std::vector<rvwo::SE2> truth_at;  // robot pose at each 20 ms tick
-  truth_at.push_back(robotAt(0));
-  const int ticks = static_cast<int>(std::lround(seconds / dt));
-  for (int i = 1; i <= ticks; ++i) {
-    const double t = i * dt;  // from the tick count, so keyframe times match reading times exactly
-    const bool slipping = t > slip_from && t <= slip_to;
-    const rvwo::SE2 a = robotAt(robot_time);
-    if (!slipping) robot_time += dt;
-    const rvwo::SE2 b = robotAt(robot_time);
-    // Encoders: the true motion, or during the slip the motion the wheels would have made.
-    const rvwo::SE2 wheel_motion = slipping ? robotAt(robot_time).between(robotAt(robot_time + dt)) : a.between(b);
-    const Eigen::Vector3d xi = wheel_motion.log();
-    const double dql = (xi.x() - xi.z() * drive.track / 2) / drive.radius_left;
-    const double dqr = (xi.x() + xi.z() * drive.track / 2) / drive.radius_right;
-    ql += dql + noise.sigma_wheel * std::sqrt(std::fabs(dql)) * g(rng);
-    qr += dqr + noise.sigma_wheel * std::sqrt(std::fabs(dqr)) * g(rng);
-    odometry.addWheelAngles(t, ql, qr, drive);
-    truth_at.push_back(b);
+  RunResult result(unsigned seed, const std::string& plot_path) {
+    std::vector<rvwo::SE2> vo = solve(Mode::kVoHuber), vw = solve(Mode::kVwHuber), vwa = solve(Mode::kVwAdaptive);
+    RunResult r;
+    for (std::size_t k = 0; k + 1 < truth_.size(); ++k)
+      r.path += (truth_[k + 1].translation() - truth_[k].translation()).norm();
+    r.keyframes = truth_.size();
+    r.landmarks = landmarks_.size();
+    r.observations = obs_.size();
+    r.slip_from = slip_from_;
+    r.slip_to = slip_from_ + kSlip;
+    const std::vector<rvwo::SE2>* trajectories[4] = {&wheel_only_, &vo, &vw, &vwa};
+    for (int m = 0; m < 4; ++m) r.ate[m] = ate(*trajectories[m], truth_);
+    if (!plot_path.empty()) plot(seed, plot_path, vo, vw, vwa);
+    return r;
   }
 
-  // ---- keyframes every 0.5 s: stereo observations, labels ----
-  const int stride = 25;
-  std::vector<double> kf_time;
-  std::vector<rvwo::SE2> truth;
-  for (std::size_t i = 0; i < truth_at.size(); i += stride) {
-    kf_time.push_back(i * dt);
-    truth.push_back(truth_at[i]);
+ private:
+  static constexpr double kBf = 0.12 * 400;  // stereo baseline times fx
+  static constexpr double kTick = 0.02;      // s between encoder readings (50 Hz)
+  static constexpr double kSlip = 2.0;       // s the wheels spin while the robot stands
+  static constexpr int kStride = 25;         // ticks between keyframes (0.5 s)
+
+  static Eigen::Isometry3d cameraMount() {
+    Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
+    T_b_c.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+    T_b_c.translation() << 0.15, 0.0, 0.5;
+    return T_b_c;
   }
-  std::vector<Obs> obs;
-  std::vector<int> seen(landmarks.size(), 0);
-  for (std::size_t k = 0; k < truth.size(); ++k) {
-    const Eigen::Vector3d x = truth[k].vector();
-    for (std::size_t l = 0; l < landmarks.size(); ++l) {
-      const Landmark& L = landmarks[l];
-      Eigen::Vector3d P = L.p;
-      if (L.walker >= 0) P.head<2>() += people[L.walker].at(kf_time[k]);
-      Eigen::Vector3d h;
-      if (!edge.predict(x, P, &h)) continue;
-      const Eigen::Vector2d p_b = truth[k].inverse().act(P.head<2>());
-      const Eigen::Vector3d P_c = T_b_c.inverse() * Eigen::Vector3d(p_b.x(), p_b.y(), P.z());
-      if (P_c.z() < 0.4 || P_c.z() > 12 || h.x() < 0 || h.x() >= 640 || h.y() < 0 || h.y() >= 480 || h.z() < 0)
-        continue;
-      if (L.walker < 0 && u(rng) > 0.35) continue;  // the tracker keeps a subset of the static points
-      const bool person = L.walker >= 0 ? u(rng) < 0.9 : u(rng) < 0.02;
-      obs.push_back({static_cast<int>(k), static_cast<int>(l), h + Eigen::Vector3d(g(rng), g(rng), g(rng)), person});
-      ++seen[l];
+
+  // Static landmarks on the walls of a 12 x 9 m room; walkers with 60 landmarks each on a 0.25 m
+  // cylinder, 0.2 to 1.8 m up.
+  void makeScene(int n_walkers) {
+    for (int i = 0; i < 1600; ++i) {
+      const double s = u_(rng_), z = 0.1 + 2.4 * u_(rng_);
+      const int wall = i % 4;
+      Eigen::Vector3d p = wall == 0   ? Eigen::Vector3d(-6 + 12 * s, -4.5, z)
+                          : wall == 1 ? Eigen::Vector3d(6, -4.5 + 9 * s, z)
+                          : wall == 2 ? Eigen::Vector3d(-6 + 12 * s, 4.5, z)
+                                      : Eigen::Vector3d(-6, -4.5 + 9 * s, z);
+      landmarks_.push_back({p, -1});
+    }
+    for (int w = 0; w < n_walkers; ++w) {
+      const double x = -3 + 6 * u_(rng_);
+      people_.push_back(
+          {Eigen::Vector2d(x, -3.5), Eigen::Vector2d(x + 2 * u_(rng_) - 1, 3.5), 0.6 + 0.6 * u_(rng_), 7 * u_(rng_)});
+      for (int k = 0; k < 60; ++k) {
+        const double a = 2 * kPi * u_(rng_);
+        landmarks_.push_back({Eigen::Vector3d(0.25 * std::cos(a), 0.25 * std::sin(a), 0.2 + 1.6 * u_(rng_)), w});
+      }
     }
   }
 
-  // ---- wheel deltas between keyframes and dead reckoning ----
-  std::vector<rvwo::WheelDelta> deltas;
-  std::vector<rvwo::SE2> wheel_only{truth[0]};
-  for (std::size_t k = 0; k + 1 < truth.size(); ++k) {
-    deltas.push_back(odometry.integrate(kf_time[k], kf_time[k + 1]));
-    wheel_only.push_back(wheel_only.back() * deltas.back().pose());
+  // 50 Hz encoders from the true motion, noisy, slipping at 40 % of the run; the true pose at each
+  // tick (the robot stands during the slip).
+  void simulateWheels() {
+    rvwo::WheelNoise noise;
+    noise.sigma_wheel = 0.02;
+    odometry_ = rvwo::WheelOdometry(noise);
+    double ql = 0, qr = 0;
+    double robot_time = 0;  // arc-length clock of the path
+    odometry_.addWheelAngles(0, 0, 0, drive_);
+    truth_at_.push_back(robotAt(0));
+    const int ticks = static_cast<int>(std::lround(seconds_ / kTick));
+    for (int i = 1; i <= ticks; ++i) {
+      const double t = i * kTick;  // from the tick count, so keyframe times match reading times exactly
+      const bool slipping = t > slip_from_ && t <= slip_from_ + kSlip;
+      const rvwo::SE2 a = robotAt(robot_time);
+      if (!slipping) robot_time += kTick;
+      const rvwo::SE2 b = robotAt(robot_time);
+      // Encoders: the true motion, or during the slip the motion the wheels would have made.
+      const rvwo::SE2 wheel_motion = slipping ? robotAt(robot_time).between(robotAt(robot_time + kTick)) : a.between(b);
+      const Eigen::Vector3d xi = wheel_motion.log();
+      const double dql = (xi.x() - xi.z() * drive_.track / 2) / drive_.radius_left;
+      const double dqr = (xi.x() + xi.z() * drive_.track / 2) / drive_.radius_right;
+      ql += dql + noise.sigma_wheel * std::sqrt(std::fabs(dql)) * g_(rng_);
+      qr += dqr + noise.sigma_wheel * std::sqrt(std::fabs(dqr)) * g_(rng_);
+      odometry_.addWheelAngles(t, ql, qr, drive_);
+      truth_at_.push_back(b);
+    }
   }
 
-  const rvwo::SemanticPriors priors = rvwo::SemanticPriors::builtin("voc21");
-  const double p_person = priors.prior(priors.labelOf("person")), p_background = priors.prior(0);
+  // Keyframes every 0.5 s: the stereo observations the tracker keeps (a third of the static
+  // points, every walker's), 1 px noise, and a label: "person" for a walker's 90 % of the time.
+  void observe() {
+    for (std::size_t i = 0; i < truth_at_.size(); i += kStride) {
+      kf_time_.push_back(i * kTick);
+      truth_.push_back(truth_at_[i]);
+    }
+    seen_.assign(landmarks_.size(), 0);
+    const Eigen::Isometry3d T_c_b = cameraMount().inverse();
+    for (std::size_t k = 0; k < truth_.size(); ++k) {
+      const Eigen::Vector3d x = truth_[k].vector();
+      for (std::size_t l = 0; l < landmarks_.size(); ++l) {
+        const Landmark& L = landmarks_[l];
+        Eigen::Vector3d P = L.p;
+        if (L.walker >= 0) P.head<2>() += people_[L.walker].at(kf_time_[k]);
+        Eigen::Vector3d h;
+        if (!edge_.predict(x, P, &h)) continue;
+        const Eigen::Vector2d p_b = truth_[k].inverse().act(P.head<2>());
+        const Eigen::Vector3d P_c = T_c_b * Eigen::Vector3d(p_b.x(), p_b.y(), P.z());
+        if (P_c.z() < 0.4 || P_c.z() > 12 || h.x() < 0 || h.x() >= 640 || h.y() < 0 || h.y() >= 480 || h.z() < 0)
+          continue;
+        if (L.walker < 0 && u_(rng_) > 0.35) continue;  // the tracker keeps a subset of the static points
+        const bool person = L.walker >= 0 ? u_(rng_) < 0.9 : u_(rng_) < 0.02;
+        obs_.push_back(
+            {static_cast<int>(k), static_cast<int>(l), h + Eigen::Vector3d(g_(rng_), g_(rng_), g_(rng_)), person});
+        ++seen_[l];
+      }
+    }
+    obs_at_.resize(truth_.size());
+    for (std::size_t i = 0; i < obs_.size(); ++i) obs_at_[obs_[i].kf].push_back(static_cast<int>(i));
+  }
 
-  enum class Mode { kVoHuber, kVwHuber, kVwAdaptive };
-  // Observations grouped by keyframe, for tracking.
-  std::vector<std::vector<int>> obs_at(truth.size());
-  for (std::size_t i = 0; i < obs.size(); ++i) obs_at[obs[i].kf].push_back(static_cast<int>(i));
-
-  auto lossFor = [](Mode mode, double alpha) -> ceres::LossFunction* {
+  static ceres::LossFunction* lossFor(Mode mode, double alpha) {
     if (mode == Mode::kVwAdaptive) return new rvwo::ceres_adapters::BarronLoss(alpha, 1.0);
     return new ceres::HuberLoss(1.0);
-  };
-  auto solve = [&](Mode mode, std::vector<rvwo::SE2>* out) {
-    std::vector<Eigen::Vector3d> x(truth.size()), P(landmarks.size(), Eigen::Vector3d::Zero());
-    std::vector<bool> mapped(landmarks.size(), false);
+  }
+
+  // The run solved one way: tracked keyframe by keyframe, then one bundle adjustment.
+  std::vector<rvwo::SE2> solve(Mode mode) {
+    Estimate e{std::vector<Eigen::Vector3d>(truth_.size()),
+               std::vector<Eigen::Vector3d>(landmarks_.size(), Eigen::Vector3d::Zero()),
+               std::vector<bool>(landmarks_.size(), false), rvwo::ReliabilityManager()};
+    track(mode, &e);
+    bundleAdjust(mode, &e);
+    std::vector<rvwo::SE2> out;
+    for (const auto& xk : e.x) out.push_back(rvwo::SE2::fromVector(xk));
+    return out;
+  }
+
+  struct Estimate {
+    std::vector<Eigen::Vector3d> x, P;
+    std::vector<bool> mapped;
     rvwo::ReliabilityManager reliability;
-    // ---- tracking, keyframe by keyframe: predict, optimise the pose alone against the mapped
-    // landmarks (with the wheel edge to the previous keyframe in vw modes), then map new ones.
-    for (std::size_t k = 0; k < truth.size(); ++k) {
+  };
+
+  // Keyframe by keyframe: predict, optimise the pose alone against the mapped landmarks (with the
+  // wheel edge to the previous keyframe in vw modes), then map new ones from the stereo pair.
+  void track(Mode mode, Estimate* e) {
+    const rvwo::SemanticPriors priors = rvwo::SemanticPriors::builtin("voc21");
+    const double p_person = priors.prior(priors.labelOf("person")), p_background = priors.prior(0);
+    for (std::size_t k = 0; k < truth_.size(); ++k) {
       if (k == 0) {
-        x[0] = truth[0].vector();
+        e->x[0] = truth_[0].vector();
       } else if (mode == Mode::kVoHuber) {  // constant velocity
-        const rvwo::SE2 prev = rvwo::SE2::fromVector(x[k - 1]);
-        const rvwo::SE2 vel = k > 1 ? rvwo::SE2::fromVector(x[k - 2]).between(prev) : rvwo::SE2();
-        x[k] = (prev * vel).vector();
+        const rvwo::SE2 prev = rvwo::SE2::fromVector(e->x[k - 1]);
+        const rvwo::SE2 vel = k > 1 ? rvwo::SE2::fromVector(e->x[k - 2]).between(prev) : rvwo::SE2();
+        e->x[k] = (prev * vel).vector();
       } else {
-        x[k] = (rvwo::SE2::fromVector(x[k - 1]) * deltas[k - 1].pose()).vector();
+        e->x[k] = (rvwo::SE2::fromVector(e->x[k - 1]) * deltas_[k - 1].pose()).vector();
       }
-      for (int i : obs_at[k]) {
-        const Obs& o = obs[i];
-        reliability.observe(o.lm, o.person_label ? p_person : p_background, std::nullopt);
+      for (int i : obs_at_[k]) {
+        const Obs& o = obs_[i];
+        e->reliability.observe(o.lm, o.person_label ? p_person : p_background, std::nullopt);
       }
-      if (k > 0) {
-        ceres::Problem problem;
-        int used = 0;
-        for (int i : obs_at[k]) {
-          const Obs& o = obs[i];
-          const double alpha = reliability.alpha(o.lm);
-          Eigen::Vector3d h;
-          if (!mapped[o.lm] || (mode == Mode::kVwAdaptive && std::isinf(alpha)) || !edge.predict(x[k], P[o.lm], &h))
-            continue;
-          problem.AddResidualBlock(new rvwo::ceres_adapters::Se2XyzCost<3>(edge, o.z, Eigen::Matrix3d::Identity()),
-                                   lossFor(mode, alpha), x[k].data(), P[o.lm].data());
-          problem.SetParameterBlockConstant(P[o.lm].data());
-          ++used;
-        }
-        if (mode != Mode::kVoHuber) {
-          problem.AddResidualBlock(new rvwo::ceres_adapters::WheelCost(rvwo::WheelEdge(deltas[k - 1])), nullptr,
-                                   x[k - 1].data(), x[k].data());
-          problem.SetParameterBlockConstant(x[k - 1].data());
-        }
-        if (used > 0 || mode != Mode::kVoHuber) {
-          problem.SetManifold(x[k].data(), new rvwo::ceres_adapters::SE2Manifold);
-          ceres::Solver::Options so;
-          so.linear_solver_type = ceres::DENSE_QR;
-          so.max_num_iterations = 20;
-          ceres::Solver::Summary summary;
-          ceres::Solve(so, &problem, &summary);
-        }
-      }
-      for (int i : obs_at[k]) {  // map: triangulate new landmarks from the stereo pair
-        const Obs& o = obs[i];
-        if (mapped[o.lm]) continue;
+      if (k > 0) optimiseKeyFramePose(mode, k, e);
+      for (int i : obs_at_[k]) {
+        const Obs& o = obs_[i];
+        if (e->mapped[o.lm]) continue;
         const double disparity = o.z.x() - o.z.z();
         if (disparity < 1.0) continue;
-        const Eigen::Vector3d P_b = T_b_c * ((bf / disparity) * camera.unproject(o.z.head<2>()));
-        const Eigen::Vector2d xy = rvwo::SE2::fromVector(x[k]).act(P_b.head<2>());
-        P[o.lm] = Eigen::Vector3d(xy.x(), xy.y(), P_b.z());
-        mapped[o.lm] = true;
+        const Eigen::Vector3d P_b = cameraMount() * ((kBf / disparity) * camera_.unproject(o.z.head<2>()));
+        const Eigen::Vector2d xy = rvwo::SE2::fromVector(e->x[k]).act(P_b.head<2>());
+        e->P[o.lm] = Eigen::Vector3d(xy.x(), xy.y(), P_b.z());
+        e->mapped[o.lm] = true;
       }
     }
-    // ---- then one bundle adjustment over the whole run (three rounds for the adaptive kernel,
-    // refreshing each landmark's outlier probability from its errors between rounds).
-    // Two rounds in every mode; after the first, edges beyond the stereo chi2 gate (7.815, 95 %)
-    // are outliers and leave the second, as ORB-SLAM does. The adaptive kernel also refreshes
-    // each landmark's outlier probability from its errors (eq. 6) between rounds.
-    const int rounds = 2;
-    std::vector<bool> outlier(obs.size(), false);
-    for (int round = 0; round < rounds; ++round) {
+  }
+
+  void optimiseKeyFramePose(Mode mode, std::size_t k, Estimate* e) {
+    ceres::Problem problem;
+    int used = 0;
+    for (int i : obs_at_[k]) {
+      const Obs& o = obs_[i];
+      const double alpha = e->reliability.alpha(o.lm);
+      Eigen::Vector3d h;
+      if (!e->mapped[o.lm] || (mode == Mode::kVwAdaptive && std::isinf(alpha)) ||
+          !edge_.predict(e->x[k], e->P[o.lm], &h))
+        continue;
+      problem.AddResidualBlock(new rvwo::ceres_adapters::Se2XyzCost<3>(edge_, o.z, Eigen::Matrix3d::Identity()),
+                               lossFor(mode, alpha), e->x[k].data(), e->P[o.lm].data());
+      problem.SetParameterBlockConstant(e->P[o.lm].data());
+      ++used;
+    }
+    if (mode != Mode::kVoHuber) {
+      problem.AddResidualBlock(new rvwo::ceres_adapters::WheelCost(rvwo::WheelEdge(deltas_[k - 1])), nullptr,
+                               e->x[k - 1].data(), e->x[k].data());
+      problem.SetParameterBlockConstant(e->x[k - 1].data());
+    }
+    if (used == 0 && mode == Mode::kVoHuber) return;
+    problem.SetManifold(e->x[k].data(), new rvwo::ceres_adapters::SE2Manifold);
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = 20;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+  }
+
+  // One bundle adjustment over the whole run, in two rounds: after the first, edges beyond the
+  // stereo chi2 gate (7.815, 95 %) are outliers and leave the second, as ORB-SLAM does. The
+  // adaptive kernel also refreshes each landmark's outlier probability from its errors (eq. 6)
+  // between rounds.
+  void bundleAdjust(Mode mode, Estimate* e) {
+    std::vector<bool> outlier(obs_.size(), false);
+    for (int round = 0; round < 2; ++round) {
       ceres::Problem problem;
-      for (std::size_t i = 0; i < obs.size(); ++i) {
-        const Obs& o = obs[i];
-        if (seen[o.lm] < 2 || !mapped[o.lm] || outlier[i]) continue;
+      for (std::size_t i = 0; i < obs_.size(); ++i) {
+        const Obs& o = obs_[i];
+        if (seen_[o.lm] < 2 || !e->mapped[o.lm] || outlier[i]) continue;
         Eigen::Vector3d h;
-        if (!edge.predict(x[o.kf], P[o.lm], &h)) continue;
-        const double alpha = reliability.alpha(o.lm);
+        if (!edge_.predict(e->x[o.kf], e->P[o.lm], &h)) continue;
+        const double alpha = e->reliability.alpha(o.lm);
         // alpha = -inf rejects the landmark: its edges leave the problem (a point held only by
         // zero-weight residuals would make the Schur complement singular).
         if (mode == Mode::kVwAdaptive && std::isinf(alpha)) continue;
-        problem.AddResidualBlock(new rvwo::ceres_adapters::Se2XyzCost<3>(edge, o.z, Eigen::Matrix3d::Identity()),
-                                 lossFor(mode, alpha), x[o.kf].data(), P[o.lm].data());
+        problem.AddResidualBlock(new rvwo::ceres_adapters::Se2XyzCost<3>(edge_, o.z, Eigen::Matrix3d::Identity()),
+                                 lossFor(mode, alpha), e->x[o.kf].data(), e->P[o.lm].data());
       }
       if (mode != Mode::kVoHuber) {
-        for (std::size_t k = 0; k + 1 < x.size(); ++k) {
-          problem.AddResidualBlock(new rvwo::ceres_adapters::WheelCost(rvwo::WheelEdge(deltas[k])), nullptr,
-                                   x[k].data(), x[k + 1].data());
+        for (std::size_t k = 0; k + 1 < e->x.size(); ++k) {
+          problem.AddResidualBlock(new rvwo::ceres_adapters::WheelCost(rvwo::WheelEdge(deltas_[k])), nullptr,
+                                   e->x[k].data(), e->x[k + 1].data());
         }
       }
-      for (auto& xk : x) {
+      for (auto& xk : e->x) {
         if (problem.HasParameterBlock(xk.data())) problem.SetManifold(xk.data(), new rvwo::ceres_adapters::SE2Manifold);
       }
-      if (problem.HasParameterBlock(x[0].data())) problem.SetParameterBlockConstant(x[0].data());
+      if (problem.HasParameterBlock(e->x[0].data())) problem.SetParameterBlockConstant(e->x[0].data());
       ceres::Solver::Options so;
       so.linear_solver_type = ceres::SPARSE_SCHUR;
       so.max_num_iterations = 50;
       so.num_threads = 1;  // deterministic: same seed, same numbers
       ceres::Solver::Summary summary;
       ceres::Solve(so, &problem, &summary);
-      for (std::size_t i = 0; i < obs.size(); ++i) {
+      for (std::size_t i = 0; i < obs_.size(); ++i) {
         Eigen::Vector3d r;
-        outlier[i] = !edge.residual(x[obs[i].kf], P[obs[i].lm], obs[i].z, &r) || r.squaredNorm() > 7.815;
+        outlier[i] = !edge_.residual(e->x[obs_[i].kf], e->P[obs_[i].lm], obs_[i].z, &r) || r.squaredNorm() > 7.815;
       }
-      if (mode == Mode::kVwAdaptive) {  // eq. 6: outlier probability from each landmark's RMS error
-        std::vector<double> sum(landmarks.size(), 0.0);
-        std::vector<int> n(landmarks.size(), 0);
-        for (const Obs& o : obs) {
-          Eigen::Vector3d r;
-          if (!edge.residual(x[o.kf], P[o.lm], o.z, &r)) continue;
-          sum[o.lm] += r.squaredNorm();
-          ++n[o.lm];
-        }
-        for (std::size_t l = 0; l < landmarks.size(); ++l) {
-          if (n[l] > 0) reliability.observe(l, std::nullopt, std::sqrt(sum[l] / n[l]));
-        }
-      }
+      if (mode == Mode::kVwAdaptive) refreshOutlierProbabilities(e);
     }
-    out->clear();
-    for (const auto& xk : x) out->push_back(rvwo::SE2::fromVector(xk));
-  };
-
-  std::vector<rvwo::SE2> vo, vw, vwa;
-  solve(Mode::kVoHuber, &vo);
-  solve(Mode::kVwHuber, &vw);
-  solve(Mode::kVwAdaptive, &vwa);
-
-  double path = 0;
-  for (std::size_t k = 0; k + 1 < truth.size(); ++k)
-    path += (truth[k + 1].translation() - truth[k].translation()).norm();
-  RunResult result;
-  result.keyframes = truth.size();
-  result.landmarks = landmarks.size();
-  result.observations = obs.size();
-  result.path = path;
-  result.slip_from = slip_from;
-  result.slip_to = slip_to;
-  const std::vector<rvwo::SE2>* trajectories[4] = {&wheel_only, &vo, &vw, &vwa};
-  for (int m = 0; m < 4; ++m) result.ate[m] = ate(*trajectories[m], truth);
-  if (plot_path.empty()) return result;
-  // ---- plot ----
-  rvwo::apps::Plot plot("rvwo-demo: trajectories from above (seed " + std::to_string(run_seed) + ")", "x [m]", "y [m]",
-                        true);
-  std::vector<Eigen::Vector2d> walls;
-  for (const Landmark& L : landmarks) {
-    if (L.walker < 0) walls.push_back(L.p.head<2>());
   }
-  plot.add(walls, mrpt::img::TColor(190, 190, 190), "wall landmarks", 0);
-  auto xy = [](const std::vector<rvwo::SE2>& t) {
-    std::vector<Eigen::Vector2d> out;
-    for (const rvwo::SE2& T : t) out.push_back(T.translation());
-    return out;
-  };
-  plot.add(xy(wheel_only), mrpt::img::TColor(230, 140, 0), "wheel (dead reckoning)");
-  plot.add(xy(vo), mrpt::img::TColor(60, 90, 230), "vo-huber");
-  plot.add(xy(vw), mrpt::img::TColor(170, 60, 200), "vw-huber");
-  plot.add(xy(vwa), mrpt::img::TColor(0, 160, 60), "vw-adaptive (RVWO)");
-  plot.add(xy(truth), mrpt::img::TColor(0, 0, 0), "ground truth", 1);
-  plot.save(plot_path, 1000, 800);
-  return result;
+
+  // Eq. 6: each landmark's outlier probability from its RMS error.
+  void refreshOutlierProbabilities(Estimate* e) const {
+    std::vector<double> sum(landmarks_.size(), 0.0);
+    std::vector<int> n(landmarks_.size(), 0);
+    for (const Obs& o : obs_) {
+      Eigen::Vector3d r;
+      if (!edge_.residual(e->x[o.kf], e->P[o.lm], o.z, &r)) continue;
+      sum[o.lm] += r.squaredNorm();
+      ++n[o.lm];
+    }
+    for (std::size_t l = 0; l < landmarks_.size(); ++l) {
+      if (n[l] > 0) e->reliability.observe(l, std::nullopt, std::sqrt(sum[l] / n[l]));
+    }
+  }
+
+  void plot(unsigned seed, const std::string& path, const std::vector<rvwo::SE2>& vo, const std::vector<rvwo::SE2>& vw,
+            const std::vector<rvwo::SE2>& vwa) const {
+    rvwo::apps::Plot plot("rvwo-demo: trajectories from above (seed " + std::to_string(seed) + ")", "x [m]", "y [m]",
+                          true);
+    std::vector<Eigen::Vector2d> walls;
+    for (const Landmark& L : landmarks_) {
+      if (L.walker < 0) walls.push_back(L.p.head<2>());
+    }
+    plot.add(walls, mrpt::img::TColor(190, 190, 190), "wall landmarks", 0);
+    auto xy = [](const std::vector<rvwo::SE2>& t) {
+      std::vector<Eigen::Vector2d> out;
+      for (const rvwo::SE2& T : t) out.push_back(T.translation());
+      return out;
+    };
+    plot.add(xy(wheel_only_), mrpt::img::TColor(230, 140, 0), "wheel (dead reckoning)");
+    plot.add(xy(vo), mrpt::img::TColor(60, 90, 230), "vo-huber");
+    plot.add(xy(vw), mrpt::img::TColor(170, 60, 200), "vw-huber");
+    plot.add(xy(vwa), mrpt::img::TColor(0, 160, 60), "vw-adaptive (RVWO)");
+    plot.add(xy(truth_), mrpt::img::TColor(0, 0, 0), "ground truth", 1);
+    plot.save(path, 1000, 800);
+  }
+
+  std::mt19937_64 rng_;
+  std::uniform_real_distribution<double> u_{0, 1};
+  std::normal_distribution<double> g_{0, 1};
+  const rvwo::PinholeCamera camera_{400, 400, 320, 240};
+  const rvwo::Se2XyzStereoEdge edge_;
+  const double seconds_, slip_from_;
+  rvwo::DiffDriveParams drive_;
+  rvwo::WheelOdometry odometry_;
+  std::vector<Landmark> landmarks_;
+  std::vector<Walker> people_;
+  std::vector<rvwo::SE2> truth_at_;  // robot pose at each 20 ms tick
+  std::vector<double> kf_time_;
+  std::vector<rvwo::SE2> truth_;  // at each keyframe
+  std::vector<Obs> obs_;
+  std::vector<std::vector<int>> obs_at_;  // observations grouped by keyframe
+  std::vector<int> seen_;                 // observations of each landmark
+  std::vector<rvwo::WheelDelta> deltas_;  // between keyframes
+  std::vector<rvwo::SE2> wheel_only_;
+};
+
+RunResult runOnce(unsigned run_seed, double seconds, int n_walkers, const std::string& plot_path) {
+  return DemoRun(run_seed, seconds, n_walkers).result(run_seed, plot_path);
 }
 
 }  // namespace
