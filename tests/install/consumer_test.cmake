@@ -91,3 +91,38 @@ int main() {
   run(${CMAKE_COMMAND} --build "${s}/build")
   run("${s}/build/s")
 endif()
+
+# tracking, the estimator and the ORB-SLAM3 plugin, each asked for alone: found with what they
+# need (Ceres before tracking), built and run.
+set(tracking_main "#include <rvwo/tracking/window.h>
+int main() {
+  const rvwo::PinholeCamera camera(400, 400, 320, 240);
+  const rvwo::Se2XyzMonoEdge mono(camera, Eigen::Isometry3d::Identity());
+  rvwo::WindowProblem pb;
+  pb.keyframes.push_back({Eigen::Vector3d::Zero(), 0.0, true});
+  const rvwo::WindowSolution s = rvwo::solveWindow(mono, nullptr, pb, rvwo::WindowOptions());
+  return !s.ran && s.x_w_b.size() == 1 ? 0 : 1;
+}
+")
+set(estimator_main "#include <rvwo/estimator/estimator.h>
+int main() { return rvwo::estimator::EstimatorOptions().window > 0 ? 0 : 1; }
+")
+set(orbslam3_main "#include <rvwo/orbslam3/wheel_input.h>
+int main() { rvwo::orbslam3::WheelInput w; return w.active() ? 1 : 0; }
+")
+foreach(c tracking estimator orbslam3)
+  if(NOT EXISTS "${prefix}/lib/cmake/rvwo/rvwo_${c}-targets.cmake")
+    continue()
+  endif()
+  set(d "${WORK_DIR}/${c}_only")
+  file(WRITE "${d}/CMakeLists.txt" "cmake_minimum_required(VERSION 3.25)
+project(${c}_only CXX)
+find_package(rvwo CONFIG REQUIRED COMPONENTS ${c})
+add_executable(app main.cpp)
+target_link_libraries(app PRIVATE rvwo::${c})
+")
+  file(WRITE "${d}/main.cpp" "${${c}_main}")
+  run(${CMAKE_COMMAND} -S "${d}" -B "${d}/build" -G Ninja "-DCMAKE_PREFIX_PATH=${prefix}")
+  run(${CMAKE_COMMAND} --build "${d}/build")
+  run("${d}/build/app")
+endforeach()
