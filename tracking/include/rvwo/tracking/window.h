@@ -2,7 +2,8 @@
 //
 // The window bundle adjustment on SE(2): what local mapping solves after each keyframe, in RVWO's
 // estimator and in the ORB-SLAM3 plugin alike. Each host fills a WindowProblem from its own map
-// and writes the WindowSolution back.
+// and writes the WindowSolution back; where the hosts still differ, WindowOptions names it
+// (docs/decisions/0010).
 //
 // Variables: the free keyframes' planar poses x_w_b = (x, y, theta), the points P_w, and the
 // odometry's calibration c (docs/maths.md section 4) when the window has wheel edges that may
