@@ -244,11 +244,18 @@ TEST(Window, NothingSolvedWithoutAFixedKeyFrameWhenTheHostAsks) {
   pb.keyframes[0].fixed = false;
   WindowOptions o = plainOptions();
   o.needs_a_fixed_keyframe = true;
+  o.calibrate = true;  // with calibrated wheel edges: nothing solved, nothing learnt
   const WindowSolution none = solveWindow(s.edge(), nullptr, pb, o);
   EXPECT_FALSE(none.ran);
+  EXPECT_FALSE(none.calibrated);
   EXPECT_EQ(none.x_w_b, x);
   o.needs_a_fixed_keyframe = false;
   EXPECT_TRUE(solveWindow(s.edge(), nullptr, pb, o).ran);
+  bool stop = true;  // the host asked the solve to end before it began
+  o.stop = &stop;
+  const WindowSolution stopped = solveWindow(s.edge(), nullptr, pb, o);
+  EXPECT_FALSE(stopped.ran);
+  EXPECT_FALSE(stopped.calibrated);
 }
 
 TEST(Window, BadIndicesAreRefused) {

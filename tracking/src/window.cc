@@ -77,7 +77,7 @@ class WindowSolver {
       }
       out.usable = summary.IsSolutionUsable();
     }
-    out.calibrated = c_free_ && out.usable && c_.allFinite();
+    out.calibrated = out.ran && c_free_ && out.usable && c_.allFinite();  // learnt only from a solve
     return finish(std::move(out));
   }
 
