@@ -303,15 +303,10 @@ int convert(ConvertArgs& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
+  return rvwo::apps::runApp("rvwo-convert", [&] {
     ConvertArgs args;
     if (const auto status = rvwo::apps::parseCommandLine(args.cmd, argc, argv)) return *status;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
     return convert(args);
-  } catch (const TCLAP::ArgException& e) {
-    std::fprintf(stderr, "rvwo-convert: %s (%s)\n", e.error().c_str(), e.argId().c_str());
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rvwo-convert: error: %s\n", e.what());
-  }
-  return 1;
+  });
 }

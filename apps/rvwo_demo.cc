@@ -430,7 +430,7 @@ RunResult runOnce(unsigned run_seed, double seconds, int n_walkers, const std::s
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
+  return rvwo::apps::runApp("rvwo-demo", [&] {
     TCLAP::CmdLine cmd(
         "rvwo-demo: simulates a wheeled robot with a stereo camera among walking people and solves the run as a "
         "planar bundle adjustment with RVWO's edges four ways (wheels only; vision with Huber; vision and wheels "
@@ -478,10 +478,5 @@ int main(int argc, char** argv) {
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("plot of seed %u: %s   (%.1f s)\n", seed.getValue(), plot.getValue().c_str(), secs);
     return 0;
-  } catch (const TCLAP::ArgException& e) {
-    std::fprintf(stderr, "rvwo-demo: %s (%s)\n", e.error().c_str(), e.argId().c_str());
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rvwo-demo: error: %s\n", e.what());
-  }
-  return 1;
+  });
 }

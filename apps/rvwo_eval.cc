@@ -118,14 +118,9 @@ int evaluate(EvalArgs& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
+  return rvwo::apps::runApp("rvwo-eval", [&] {
     EvalArgs args;
     if (const auto status = rvwo::apps::parseCommandLine(args.cmd, argc, argv)) return *status;
     return evaluate(args);
-  } catch (const TCLAP::ArgException& e) {
-    std::fprintf(stderr, "rvwo-eval: %s (%s)\n", e.error().c_str(), e.argId().c_str());
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rvwo-eval: error: %s\n", e.what());
-  }
-  return 1;
+  });
 }

@@ -25,7 +25,7 @@
 #include "support/rawlog.h"
 
 int main(int argc, char** argv) {
-  try {
+  return rvwo::apps::runApp("rvwo-orbslam3-vocab", [&] {
     TCLAP::CmdLine cmd(
         "rvwo-orbslam3-vocab: builds a DBoW2 vocabulary (text, for ORB-SLAM3 and rvwo-replay --backend orbslam3) "
         "from the camera images of rawlogs, with ORB-SLAM3's own ORB extractor. Train it on recordings other than "
@@ -75,10 +75,5 @@ int main(int argc, char** argv) {
     std::printf("rvwo-orbslam3-vocab: %zu words from %zu images in %.1f s: %s\n", words, images.size(),
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), out.getValue().c_str());
     return 0;
-  } catch (const TCLAP::ArgException& e) {
-    std::fprintf(stderr, "rvwo-orbslam3-vocab: %s (%s)\n", e.error().c_str(), e.argId().c_str());
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rvwo-orbslam3-vocab: error: %s\n", e.what());
-  }
-  return 1;
+  });
 }

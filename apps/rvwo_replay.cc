@@ -685,12 +685,5 @@ class ReplayApp {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return ReplayApp().run(argc, argv);
-  } catch (const TCLAP::ArgException& e) {
-    std::fprintf(stderr, "rvwo-replay: %s (%s)\n", e.error().c_str(), e.argId().c_str());
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rvwo-replay: error: %s\n", e.what());
-  }
-  return 1;
+  return rvwo::apps::runApp("rvwo-replay", [&] { return ReplayApp().run(argc, argv); });
 }

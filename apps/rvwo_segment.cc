@@ -163,15 +163,10 @@ int segmentImage(SegmentArgs& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
+  return rvwo::apps::runApp("rvwo-segment", [&] {
     SegmentArgs args;
     if (const auto status = rvwo::apps::parseCommandLine(args.cmd, argc, argv)) return *status;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);  // our errors are one line each
     return segmentImage(args);
-  } catch (const TCLAP::ArgException& e) {
-    std::fprintf(stderr, "rvwo-segment: %s (%s)\n", e.error().c_str(), e.argId().c_str());
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rvwo-segment: error: %s\n", e.what());
-  }
-  return 1;
+  });
 }

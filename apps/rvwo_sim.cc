@@ -474,16 +474,11 @@ class SimApp {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
+  return rvwo::apps::runApp("rvwo-sim", [&] {
     SimArgs args;
     if (const auto status = rvwo::apps::parseCommandLine(args.cmd, argc, argv)) return *status;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
     const rvwo::sim::Scenario sc = scenarioOf(args);
     return SimApp(sc, args.seed.getValue(), args.out.getValue(), args.quiet.getValue()).run();
-  } catch (const TCLAP::ArgException& e) {
-    std::fprintf(stderr, "rvwo-sim: %s (%s)\n", e.error().c_str(), e.argId().c_str());
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rvwo-sim: error: %s\n", e.what());
-  }
-  return 1;
+  });
 }

@@ -51,4 +51,18 @@ inline std::optional<int> parseCommandLine(TCLAP::CmdLine& cmd, int argc, char**
   return output.failed ? 1 : 0;
 }
 
+// An app's main: runs body (which returns the exit status) and turns what it throws into one
+// line on stderr, "<program>: error: <what>", and exit status 1.
+template <typename Body>
+int runApp(const char* program, Body&& body) {
+  try {
+    return body();
+  } catch (const TCLAP::ArgException& e) {
+    std::fprintf(stderr, "%s: %s (%s)\n", program, e.error().c_str(), e.argId().c_str());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: error: %s\n", program, e.what());
+  }
+  return 1;
+}
+
 }  // namespace rvwo::apps
