@@ -113,7 +113,7 @@ enum class Mode { kVoHuber, kVwHuber, kVwAdaptive };
 class DemoRun {
  public:
   DemoRun(unsigned seed, double seconds, int n_walkers)
-      : rng_(seed), edge_(camera_, cameraMount(), kBf), seconds_(seconds), slip_from_(0.4 * seconds) {
+      : rng_(seed), edge_(camera_, T_b_c_, kBf), seconds_(seconds), slip_from_(0.4 * seconds) {
     makeScene(n_walkers);
     simulateWheels();
     observe();
@@ -213,7 +213,7 @@ class DemoRun {
       truth_.push_back(truth_at_[i]);
     }
     seen_.assign(landmarks_.size(), 0);
-    const Eigen::Isometry3d T_c_b = cameraMount().inverse();
+    const Eigen::Isometry3d T_c_b = T_b_c_.inverse();
     for (std::size_t k = 0; k < truth_.size(); ++k) {
       const Eigen::Vector3d x = truth_[k].vector();
       for (std::size_t l = 0; l < landmarks_.size(); ++l) {
@@ -285,7 +285,7 @@ class DemoRun {
         if (e->mapped[o.lm]) continue;
         const double disparity = o.z.x() - o.z.z();
         if (disparity < 1.0) continue;
-        const Eigen::Vector3d P_b = cameraMount() * ((kBf / disparity) * camera_.unproject(o.z.head<2>()));
+        const Eigen::Vector3d P_b = T_b_c_ * ((kBf / disparity) * camera_.unproject(o.z.head<2>()));
         const Eigen::Vector2d xy = rvwo::SE2::fromVector(e->x[k]).act(P_b.head<2>());
         e->P[o.lm] = Eigen::Vector3d(xy.x(), xy.y(), P_b.z());
         e->mapped[o.lm] = true;
@@ -407,6 +407,7 @@ class DemoRun {
   std::uniform_real_distribution<double> u_{0, 1};
   std::normal_distribution<double> g_{0, 1};
   const rvwo::PinholeCamera camera_{400, 400, 320, 240};
+  const Eigen::Isometry3d T_b_c_ = cameraMount();
   const rvwo::Se2XyzStereoEdge edge_;
   const double seconds_, slip_from_;
   rvwo::DiffDriveParams drive_;

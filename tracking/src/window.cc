@@ -277,6 +277,7 @@ class WindowSolver {
     for (std::size_t i = 0; i < P_.size(); ++i) out.solved[i] = problem_.HasParameterBlock(P_[i].data());
     out.calibration = out.calibrated ? c_ : pb_.calibration.c;
     out.calibration_information = out_information_;
+    out.newest_t = newest_t_;
     for (const Wheel& w : wheels_) out.wheel_edges += w.block != nullptr;
     out.wheel_edges_dropped = dropped_;
     out.x_w_b = std::move(x_);

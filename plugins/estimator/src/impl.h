@@ -6,8 +6,6 @@
 // rvwo::solveWindow), estimator.cc (the public interface). Private to the library.
 #pragma once
 
-#include <ceres/ceres.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -24,9 +22,7 @@
 #include <thread>
 #include <unordered_map>
 
-#include "rvwo/ceres/barron_loss.h"
 #include "rvwo/ceres/costs.h"
-#include "rvwo/ceres/se2_manifold.h"
 #include "rvwo/edges/wheel_edge.h"
 #include "rvwo/estimator/estimator.h"
 #include "rvwo/estimator/features.h"
@@ -281,20 +277,6 @@ struct Estimator::Impl {
   // A landmark the adaptive (or a fixed alpha = -inf) kernel rejects: its edges leave the problem.
   bool rejected(double alpha) const { return opt.kernel != KernelChoice::kHuber && alpha == -BarronKernel::kInfinity; }
 
-  // The SE(2)-XYZ edge of an observation (u, v, u_R) (N = 3) or (u, v) (N = 2), and the
-  // square-root information of its covariance at x (eq. 10: out-of-plane inflation).
-  template <int N>
-  const Se2XyzEdge<N>& edge() const {
-    if constexpr (N == 3) {
-      return *stereo_edge;
-    } else {
-      return mono_edge;
-    }
-  }
-  template <int N>
-  Eigen::Matrix<double, N, N> sqrtInformation(const Eigen::Vector3d& x, const Eigen::Vector3d& P, double sigma) const {
-    return edge<N>().sqrtInformation(x, P, sigma, opt.out_of_plane);
-  }
   // Whitened chi2 of observation z = (u, v, u_R) at x (u_R unused unless stereo), with the
   // information at x (rvwo::whitenedChi2); false when the point does not project.
   bool chi2(bool stereo, const Eigen::Vector3d& x, const Eigen::Vector3d& P, const Eigen::Vector3d& z, double sigma,
@@ -515,8 +497,6 @@ struct Estimator::Impl {
   // it: poses, points, outlier observations erased, each point's RMS error into its reliability
   // (eq. 6), the wheels' calibration if the window taught it.
   void localBundleAdjustment();
-
-  static double newestTime(const WindowProblem& pb);
 
   // (Map lock held.)
   void writeBack(const WindowProblem& pb, const WindowSolution& sol, const std::vector<std::uint64_t>& kf_ids,

@@ -229,15 +229,9 @@ void Estimator::Impl::localBundleAdjustment() {
   if (!sol.usable) return;
   if (sol.calibrated) {
     std::lock_guard<std::mutex> olock(odometry_mutex);
-    calibration.refined(sol.calibration, newestTime(pb));
+    calibration.refined(sol.calibration, sol.newest_t);
   }
   writeBack(pb, sol, kf_ids, point_ids, features);
-}
-
-double Estimator::Impl::newestTime(const WindowProblem& pb) {
-  double t = -1e300;
-  for (const WindowKeyFrame& k : pb.keyframes) t = std::max(t, k.t);
-  return t;
 }
 
 void Estimator::Impl::writeBack(const WindowProblem& pb, const WindowSolution& sol,

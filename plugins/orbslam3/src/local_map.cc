@@ -114,8 +114,6 @@ void WheelInput::Impl::learnCalibration(const WindowProblem& w, const std::vecto
                                         const WindowSolution& sol) {
   Eigen::Matrix3d known = sol.calibration_information;
   const ceres_adapters::WheelCalibrationEstimate& cal = w.calibration;
-  double newest_t = -1e300;
-  for (const WindowKeyFrame& k : w.keyframes) newest_t = std::max(newest_t, k.t);
   for (const Span& sp : spans) {
     if (sp.spin || sp.slipped || !params.calibrate || !cal.counting || w.keyframes[sp.b].t <= cal.t) continue;
     try {
@@ -125,7 +123,7 @@ void WheelInput::Impl::learnCalibration(const WindowProblem& w, const std::vecto
     }
   }
   std::lock_guard<std::mutex> lock(mutex);
-  calibration.refined(sol.calibration, newest_t, known);
+  calibration.refined(sol.calibration, sol.newest_t, known);
 }
 
 bool WheelInput::optimisesEssentialGraphs() const { return optimisesLocalMaps() && impl_->params.essential_graph; }

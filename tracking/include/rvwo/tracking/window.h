@@ -100,6 +100,7 @@ struct WindowSolution {
   bool usable = true;                  // the solve's result may be written back (true when nothing ran)
   WheelCalibration calibration = WheelCalibration::Zero();  // c after the BA (as before unless calibrated)
   bool calibrated = false;  // c was free to the end, the wheels agreeing with the window
+  double newest_t = 0.0;    // s: the newest keyframe's time, the one a learnt c is dated with
   Eigen::Matrix3d calibration_information = Eigen::Matrix3d::Zero();  // of the priors on c
   int wheel_edges = 0;                                                // in the problem at the end
   int wheel_edges_dropped = 0;                                        // found slipping after the first round
