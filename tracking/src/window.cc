@@ -193,8 +193,7 @@ class WindowSolver {
     const bool slip_found = judgeWheels(usable);
     // The calibration learns only from windows the wheels agree with once it is applied: a
     // differential drive's calibration cannot explain sideways motion, nor a turn scale that
-    // changes from one window to the next (walkers filling the view took the curvature from -0.03
-    // to +0.3 rad/m in a second, a spin on the spot the turn scale from 0.98 to 0.61).
+    // changes from one window to the next (docs/decisions/0001).
     bool consistent = usable && !slip_found;
     for (std::size_t k = 0; consistent && k < wheels_.size(); ++k) {
       double cost = 0;

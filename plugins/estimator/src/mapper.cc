@@ -199,7 +199,7 @@ WindowOptions Estimator::Impl::windowOptions() const {
   wo.slipped_wheel_chi2 = kChi2Stereo;
   wo.calibrate = opt.mode == Mode::kVw && opt.calibrate;
   // Mono has no metric but the wheels': scaling the window's map and the wheels' distance scale
-  // together changes no residual (left free, it drifted to 0.976-0.994 over the mono suite).
+  // together changes no residual (docs/decisions/0001).
   wo.hold_distance_scale = rig.sensor == Sensor::kMono;
   wo.calibration_sigma = opt.calibration_sigma;
   wo.calibration_step = opt.calibration_step;
