@@ -29,6 +29,7 @@
 #include "rvwo/kernels/barron.h"
 #include "rvwo/semantics/async_segmenter.h"
 #include "rvwo/semantics/label_lookup.h"
+#include "rvwo/tracking/frame_arbiter.h"
 #include "rvwo/tracking/planar_pose.h"
 #include "rvwo/tracking/wheel_checks.h"
 #include "rvwo/tracking/window.h"
@@ -200,7 +201,6 @@ struct Estimator::Impl {
   int frames_since_kf = 0;
   bool has_last = false, last_visual = true;
   std::size_t slip_frames = 0;       // frames where vision overruled the wheels
-  bool slipping = false;             // the last frame was one (tracking's)
   double last_slip_t = -1e300;       // the last such frame's time
   int slip_run = 0;                  // slip frames in a row, up to the last one
   bool holding = false;              // the last frame held the pose after a slip
@@ -217,13 +217,9 @@ struct Estimator::Impl {
     bool spin;  // the robot about stood while the wheels went on (slipIsSpin)
   };
   std::deque<SlipMark> slip_marks;  // of those frames, since the oldest keyframe in memory
-  // Mono: vision alone's recent poses (each frame's, where it placed the frame) over the stretch
-  // wheelsStall judges, and how many frames in a row it has found the wheels stalled.
-  static constexpr double kStallStretch = 0.2;  // s: 3 cm (kStallTravel) at 0.15 m/s
-  static constexpr int kStallFrames = 5;        // a bump or a walker pulls vision alone off for
-                                                // one or two stretches, not three (mono combined)
-  std::deque<std::pair<double, Eigen::Vector3d>> vision_track;
-  int stall_run = 0;
+  // The wheels against vision, frame by frame (the slip, the stall, the wheel gate): tracking's.
+  FrameArbiter arbiter;
+  static ArbiterOptions arbiterOptions(const Rig& r, const EstimatorOptions& o);
 
   struct SlipCount {
     int frames = 0, spins = 0;
@@ -248,7 +244,8 @@ struct Estimator::Impl {
         mono_edge(*r.camera, r.T_b_c),
         reliability(o.reliability),
         odometry(o.wheel_noise, r.T_b_o),
-        segmenter(o.semantics ? std::move(seg) : nullptr) {
+        segmenter(o.semantics ? std::move(seg) : nullptr),
+        arbiter(arbiterOptions(r, o)) {
     if (r.sensor != Sensor::kMono) stereo_edge.emplace(*r.camera, r.T_b_c, r.bf());
     if (segmenter && !opt.deterministic) async = std::make_unique<AsyncSegmenter>(segmenter, 4, 256);
     dynamic_labels = opt.priors.dynamicLabels();
@@ -316,7 +313,7 @@ struct Estimator::Impl {
   // The frame's matches as the pose solver takes them, each with its landmark's kernel. (Map lock
   // held.)
   std::vector<PoseObservation> poseObservations(const Features& f, const std::vector<Match>& matches) const;
-  PlanarPoseOptions poseOptions() const;
+  PlanarPoseOptions poseOptions() const { return arbiter.options().pose; }
 
   // Pose-only optimisation on SE(2): iteratively reweighted Gauss-Newton with each landmark's
   // kernel, in rounds (ORB-SLAM's): after each, residuals beyond the chi2 gate are outliers for
@@ -337,7 +334,6 @@ struct Estimator::Impl {
     double t = 0;
     std::optional<WheelDelta> delta;  // the wheels since the last frame (none: vo, or no readings)
     SE2 predicted;                    // where they (or the motion model) put the robot
-    std::optional<WheelEdge> prior;   // their edge from the last frame (vw)
     Features f;
     cv::Mat raw_grey;
     Eigen::Vector3d x = Eigen::Vector3d::Zero();  // the pose being solved
@@ -350,13 +346,8 @@ struct Estimator::Impl {
     int vision_alone_placed = -1;  // trusted inliers of vision alone, when the slip check solved it
     bool strained = false;         // vision strains the wheel edge from the last frame
     bool was_slipping = false;
-    bool track_vision = false;  // mono: vision alone's own track is kept
     bool visual = false, after_slip = false, contradicts_wheels = false;
-    int countTrusted(const std::vector<char>& in) const {
-      int n = 0;
-      for (std::size_t k = 0; k < in.size(); ++k) n += in[k] && trusted[k];
-      return n;
-    }
+    int countTrusted(const std::vector<char>& in) const { return rvwo::countTrusted(in, trusted); }
   };
 
   // The frame's pipeline: predict from the wheels, extract features (made ahead in the front
@@ -368,28 +359,15 @@ struct Estimator::Impl {
   // which local BA may have moved), or without them the motion model's.
   void predictFrame(FrameWork* w);
 
-  // Matches to the local map, the pose solved with the wheel edge, then the wheels against vision:
-  // the slip check and the wheel gate. (Map lock held.)
+  // Matches to the local map, then the frame's pose and the wheels against vision (the arbiter).
+  // (Map lock held.)
   void trackLocalMap(FrameWork* w);
 
-  // Mono: vision alone's own track over the last kStallStretch, and whether it shows wheels that
-  // stall (wheelsStall) kStallFrames in a row, this frame too seeing less than half its claim (a
-  // stretch over a stall's end still reads as stalled for up to half its length once the robot
-  // has driven on: 4 frames after a 1 s mono slip, 2.4 cm).
-  bool trackVisionAlone(const FrameWork& w, const Eigen::Vector3d& x_vision, const std::vector<char>& inlier_v);
-
-  // The slip check (rvwo::decideSlip): the wheels' motion against vision alone's, started where
-  // the robot was. When the wheels spin in place (or skid) every static landmark disagrees with
-  // them, so vision alone explains clearly more: it wins and the wheel edge is dropped for this
-  // frame. Among walkers the wheels side with the static landmarks and keep the pose. Mono solves
-  // vision alone every frame: its own track shows wheels that stall, which mono's counts of one
-  // frame cannot. (Map lock held.)
-  void checkSlip(FrameWork* w);
-
-  // The wheel gate (Estimator.WheelGate; adaptive kernel, stereo and RGB-D:
-  // rvwo::solveFromTheWheels; docs/decisions/0002). Not when vision comes back after frames on
-  // the wheels: there it corrects their drift. (Map lock held.)
-  void applyWheelGate(FrameWork* w);
+  // The wheels against vision for this frame (rvwo::FrameArbiter): the pose solved with the wheel
+  // edge, a slip (vision alone overrules them), a stall (mono), the wheel gate (docs/decisions/0002).
+  FrameEvidence frameEvidence(const FrameWork& w);
+  // A slip frame: counted, its run, and marked for local BA (a spin's wheel edge sits out its first round).
+  void recordSlip(const FrameWork& w, bool spin);
 
   // Still blind after a stretch on the wheels: their prediction may be too far off for the
   // projection search, the map in memory may still be in view. Only trusted landmarks place the

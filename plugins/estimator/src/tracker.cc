@@ -130,14 +130,6 @@ std::vector<PoseObservation> Estimator::Impl::poseObservations(const Features& f
   return obs;
 }
 
-PlanarPoseOptions Estimator::Impl::poseOptions() const {
-  PlanarPoseOptions po;
-  po.huber = opt.kernel == KernelChoice::kHuber;
-  po.barron_scale = opt.barron_scale;
-  po.out_of_plane = opt.out_of_plane;
-  return po;
-}
-
 int Estimator::Impl::optimisePose(const Features& f, const std::vector<Match>& matches,
                                   const std::optional<WheelEdge>& prior, const Eigen::Vector3d& x_prev,
                                   Eigen::Vector3d* x, std::vector<char>* inlier, std::vector<double>* errors) {
@@ -227,128 +219,63 @@ void Estimator::Impl::trackLocalMap(FrameWork* w) {
   }
   timings.add("match", msSince(t2));
   auto t3 = Clock::now();
-  if (w->delta && opt.mode == Mode::kVw) {
-    try {
-      w->prior.emplace(*w->delta);
-    } catch (const std::invalid_argument&) {  // degenerate covariance (no motion, no floor)
-    }
-  }
-  w->was_slipping = slipping;
-  slipping = false;  // until this frame says otherwise (a frame without matches ends a slip)
+  w->was_slipping = arbiter.slipping();
   // Vision counts only landmarks no label has called dynamic (in the slip test and for a visual
   // frame): a walker close in front fills the view with its own landmarks.
   w->trusted = trustedOf(w->matches);
-  w->candidates = static_cast<int>(std::count(w->trusted.begin(), w->trusted.end(), 1));
-  // Trusted inliers a frame needs for vision to place it. Coming back from the wheels, vision
-  // must be convincingly back (the first frames after a blackout carry few, poorly placed
-  // matches: one such frame put the pose 6 cm off).
-  w->to_place = (last_visual ? 1 : 3) * opt.min_inliers;
-  w->track_vision = w->prior && rig.sensor == Sensor::kMono && !w->matches.empty();
-  if (!w->track_vision) {  // a gap in vision alone's track: it starts again
-    vision_track.clear();
-    stall_run = 0;
-  }
-  if (!w->matches.empty()) {
-    w->inliers = optimisePose(w->f, w->matches, w->prior, last_pose.vector(), &w->x, &w->inlier, &w->errors);
-    w->strained = w->prior && wheelEdgeStrained(*w->prior, last_pose.vector(), w->x);
-    checkSlip(w);
-    applyWheelGate(w);
-  }
+  FrameDecision d = arbiter.decide(frameEvidence(*w));
+  w->x = d.x;
+  w->inliers = d.result.inliers;
+  w->inlier = std::move(d.result.inlier);
+  w->errors = std::move(d.result.error);
+  w->candidates = d.candidates;
+  w->to_place = d.to_place;
+  w->strained = d.strained;
+  w->vision_alone_placed = d.vision_alone_placed;
+  if (d.slip) recordSlip(*w, d.spin);
+  if (d.gated) ++counters.wheel_gated;
   timings.add("pose", msSince(t3));
-  // (Trusted inliers only: following a walker's landmarks is following the walker.)
-  w->visual = w->countTrusted(w->inlier) >= w->to_place;
+  w->visual = d.visual();
 }
 
-bool Estimator::Impl::trackVisionAlone(const FrameWork& w, const Eigen::Vector3d& x_vision,
-                                       const std::vector<char>& inlier_v) {
-  while (!vision_track.empty() && vision_track.front().first < w.t - kStallStretch - 1e-6) {
-    vision_track.pop_front();
-  }
-  if (w.countTrusted(inlier_v) < w.to_place) {
-    vision_track.clear();  // vision alone did not place this frame: the track starts again
-    stall_run = 0;
-  } else {
-    bool stall = false;
-    if (!vision_track.empty() && w.t - vision_track.front().first >= 0.75 * kStallStretch) {
-      if (const std::optional<WheelDelta> stretch = wheelDelta(vision_track.front().first, w.t)) {
-        const SE2 T_vision = SE2::fromVector(vision_track.front().second).inverse() * SE2::fromVector(x_vision);
-        stall = wheelsStall(*stretch, T_vision);
-      }
-    }
-    stall_run = stall ? stall_run + 1 : 0;
-    vision_track.emplace_back(w.t, x_vision);
-  }
-  return stall_run >= kStallFrames &&
-         stallSeen(*w.delta, last_pose.inverse() * SE2::fromVector(x_vision)) < kStallRatio;
+FrameEvidence Estimator::Impl::frameEvidence(const FrameWork& w) {
+  FrameEvidence e;
+  e.t = w.t;
+  e.mono = &mono_edge;
+  e.stereo = stereo_edge ? &*stereo_edge : nullptr;
+  if (!w.matches.empty()) e.observations = poseObservations(w.f, w.matches);
+  e.trusted = w.trusted;
+  if (opt.mode == Mode::kVw) e.wheels = w.delta;
+  e.x_prev = last_pose.vector();
+  e.t_prev = last_t;
+  e.x_guess = w.x;
+  // Coming back from the wheels, vision must be convincingly back (the first frames after a
+  // blackout carry few, poorly placed matches: one such frame put the pose 6 cm off).
+  e.after_blind = !last_visual;
+  e.wheels_between = [this](double t0, double t1) { return wheelDelta(t0, t1); };
+  return e;
 }
 
-void Estimator::Impl::checkSlip(FrameWork* w) {
-  Eigen::Vector3d x_vision = last_pose.vector();
-  std::vector<char> inlier_v;
-  std::vector<double> errors_v;
-  int inliers_v = 0;
-  const auto solveVisionAlone = [&] {
-    inliers_v = optimisePose(w->f, w->matches, std::nullopt, last_pose.vector(), &x_vision, &inlier_v, &errors_v);
-  };
-  bool stalled = false;
-  if (w->track_vision) {
-    solveVisionAlone();
-    stalled = trackVisionAlone(*w, x_vision, inlier_v);
-  }
-  if (!w->prior || !(slipWorthChecking(w->was_slipping, w->strained, w->matches.size(), w->inliers) || stalled)) return;
-  if (!w->track_vision) solveVisionAlone();
-  // Counting only landmarks no label has called dynamic: a walker close by, freshly mapped, once
-  // explained 376 of 422 matches and took vision alone 25 cm off in four frames.
-  SlipEvidence e;
-  e.wheels = &*w->delta;
-  e.T_b0_b1_fused = last_pose.inverse() * SE2::fromVector(w->x);
-  e.T_b0_b1_vision = last_pose.inverse() * SE2::fromVector(x_vision);
-  e.fused_inliers = w->countTrusted(w->inlier);
-  e.vision_inliers = w->countTrusted(inlier_v);
-  w->vision_alone_placed = e.vision_inliers;
-  e.candidates = w->candidates;
-  e.strained = w->strained;
-  e.stalled = stalled;
-  e.was_slipping = w->was_slipping;
-  e.from_vision_alone = w->was_slipping;  // the previous frame's pose was vision alone's
-  // Only vision that would place the frame overrules the wheels (mono, blind in a turn among
-  // walkers and bumps, called frames slips that vision could not place).
-  e.min_to_go_on = w->to_place;
-  e.min_to_start = std::max(w->to_place, static_cast<int>(std::ceil(opt.slip_min_inliers * opt.min_inliers)));
-  // Mono: a slip that starts farther back than this frame's claim, its tolerance and a skid says
-  // the frames before took the wheels' side; so strong a claim needs vision that places the
-  // frame firmly (docs/decisions/0009).
-  if (w->track_vision && !w->was_slipping && missBeyondTheClaim(*w->delta, e.T_b0_b1_vision)) {
-    e.min_to_start = std::max(e.min_to_start, 5 * opt.min_inliers);
-  }
-  if (!decideSlip(e)) return;
-  slipping = true;
-  w->x = x_vision;
-  w->inliers = inliers_v;
-  w->inlier.swap(inlier_v);
-  w->errors.swap(errors_v);
+ArbiterOptions Estimator::Impl::arbiterOptions(const Rig& r, const EstimatorOptions& o) {
+  ArbiterOptions a = ArbiterOptions::estimator(r.sensor == Sensor::kMono);
+  a.min_inliers = o.min_inliers;
+  a.slip_start = o.slip_min_inliers;
+  a.wheel_gate = a.wheel_gate && o.wheel_gate && o.kernel == KernelChoice::kAdaptive;
+  a.pose.huber = o.kernel == KernelChoice::kHuber;
+  a.pose.barron_scale = o.barron_scale;
+  a.pose.out_of_plane = o.out_of_plane;
+  return a;
+}
+
+void Estimator::Impl::recordSlip(const FrameWork& w, bool spin) {
   ++slip_frames;
-  last_slip_t = w->t;
+  last_slip_t = w.t;
   // A hold goes on with the slip it held: vision back for a frame or two between blind
   // stretches, a walker passing in front of the spinning robot, is the same slip, and the
   // blindness after it holds again (docs/decisions/0003).
-  slip_run = (w->was_slipping || holding) ? slip_run + 1 : 1;
+  slip_run = (w.was_slipping || holding) ? slip_run + 1 : 1;
   std::lock_guard<std::mutex> slock(slip_mutex);
-  slip_marks.push_back({w->t, slipIsSpin(*w->delta, e.T_b0_b1_vision)});
-}
-
-void Estimator::Impl::applyWheelGate(FrameWork* w) {
-  PlanarPoseResult gated;
-  if (opt.wheel_gate && opt.kernel == KernelChoice::kAdaptive && rig.sensor != Sensor::kMono && w->strained &&
-      !slipping && last_visual &&
-      solveFromTheWheels(mono_edge, stereo_edge ? &*stereo_edge : nullptr, poseObservations(w->f, w->matches),
-                         WheelPrior{&*w->prior, last_pose.vector()}, poseOptions(), w->predicted.vector(), w->trusted,
-                         w->to_place, &w->x, &gated)) {
-    w->inliers = gated.inliers;
-    w->inlier.swap(gated.inlier);
-    w->errors.swap(gated.error);
-    ++counters.wheel_gated;
-  }
+  slip_marks.push_back({w.t, spin});
 }
 
 void Estimator::Impl::relocaliseBlindFrame(FrameWork* w) {
@@ -378,7 +305,7 @@ void Estimator::Impl::relocaliseBlindFrame(FrameWork* w) {
 }
 
 void Estimator::Impl::holdAfterSlip(FrameWork* w) {
-  w->after_slip = !w->visual && !slipping && w->t - last_slip_t <= opt.slip_hold &&
+  w->after_slip = !w->visual && !arbiter.slipping() && w->t - last_slip_t <= opt.slip_hold &&
                   slip_run >= opt.slip_hold_min_frames && (holding || w->was_slipping);
   holding = w->after_slip;
   if (!w->after_slip) return;
@@ -433,7 +360,7 @@ bool Estimator::Impl::keepFrame(FrameWork* w, FrameRecord* record) {
     record->T_kf_b = SE2::fromVector(ref_kf.x).inverse() * T_w_b;
   }
   record->visual = w->visual;
-  record->slip = w->visual && slipping;
+  record->slip = w->visual && arbiter.slipping();
   return make_kf;
 }
 
@@ -449,7 +376,7 @@ bool Estimator::Impl::keyFrameDue(const FrameWork& w, const SE2& T_w_b, const st
     wheels_doubted_t = -1e300;
     return frames_since_kf >= opt.keyframe_max_frames ||
            (frames_since_kf >= 2 && w.inliers < opt.keyframe_ratio * ref_kf.tracked) ||
-           (!slipping && !w.strained && close_tracked < 100 && close_untracked > 70);
+           (!arbiter.slipping() && !w.strained && close_tracked < 100 && close_untracked > 70);
   }
   if (rig.sensor == Sensor::kMono) {
     // Mono: once the wheels have moved the camera far enough for a baseline.

@@ -274,67 +274,44 @@ std::vector<PoseObservation> WheelInput::Impl::poseObservations(const PoseProble
 WheelInput::Impl::WheelPriorOfFrame WheelInput::Impl::wheelPriorOf(const PoseProblem& pb) const {
   WheelPriorOfFrame w;
   w.from_anchor = run > 0 && anchor.set && covers(anchor.t, pb.t);
-  w.slip_from = w.from_anchor ? anchor.t : pb.t_previous;
+  w.t_prev = w.from_anchor ? anchor.t : pb.t_previous;
   if (w.from_anchor || (pb.has_previous && covers(pb.t_previous, pb.t))) {
     w.x_prev = w.from_anchor ? anchor.x : planarOf(pb.T_cp_w);
-    w.delta = integrate(w.from_anchor ? anchor.t : pb.t_previous, pb.t);
-    try {
-      w.edge.emplace(*w.delta);
-    } catch (const std::invalid_argument&) {  // degenerate covariance: vision alone
-      w.delta.reset();
-    }
+    w.delta = integrate(w.t_prev, pb.t);
   }
   return w;
 }
 
-// Slip: the wheels claimed motion the robot did not make, so every static point disagrees with
-// them and vision alone, started where the robot was, explains clearly more of the trusted points
-// (the estimator's test). Among walkers the wheels side with the static points and keep the pose
-// (looksLikeSlip). Vision alone is solved every frame (0.5 to 2 ms for 100 to 300 matches,
-// rvwo_bench_tracking): its own track is what shows wheels that creep. On a slip, *x and *r become
-// vision alone's. (Under the mutex.)
-bool WheelInput::Impl::checkSlip(const PoseProblem& pb, const std::vector<PoseObservation>& obs,
-                                 const std::vector<char>& trusted, const PlanarPoseOptions& opt, WheelPriorOfFrame* w,
-                                 bool strained, Eigen::Vector3d* x, PlanarPoseResult* r) {
-  Eigen::Vector3d x_vision = w->x_prev;
-  PlanarPoseResult rv = optimisePlanarPose(*mono, stereo ? &*stereo : nullptr, obs, WheelPrior{}, opt, &x_vision);
-  // ORB-SLAM3's bar for a tracked frame (30 inliers), twice over, for vision to overrule the wheels.
-  constexpr int kMinVision = 60;
-  const auto countTrusted = [&](const std::vector<char>& inlier) {
-    int count = 0;
-    for (std::size_t k = 0; k < inlier.size(); ++k) count += inlier[k] && trusted[k];
-    return count;
+// The frame as the arbiter takes it. The wheel gate is not tried from the anchor: vision back after
+// frames on the wheels corrects their drift. (Under the mutex.)
+FrameEvidence WheelInput::Impl::frameEvidence(const PoseProblem& pb) const {
+  FrameEvidence e;
+  e.t = pb.t;
+  e.mono = &*mono;
+  e.stereo = stereo ? &*stereo : nullptr;
+  e.trusted = trustedOf(pb);
+  e.observations = poseObservations(pb, e.trusted);
+  const WheelPriorOfFrame w = wheelPriorOf(pb);
+  e.wheels = w.delta;
+  e.x_prev = w.x_prev;
+  e.t_prev = w.t_prev;
+  e.after_blind = w.from_anchor;
+  e.x_guess = planarOf(pb.T_c_w);
+  e.wheels_between = [this](double t0, double t1) -> std::optional<WheelDelta> {
+    if (!covers(t0, t1)) return std::nullopt;
+    return integrate(t0, t1);
   };
-  const int candidates = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
-  const int vision_inliers = countTrusted(rv.inlier);
-  const bool placed = vision_inliers >= kMinVision && vision_inliers >= 0.85 * static_cast<double>(candidates);
-  auto& track = vision_track;
-  if (!track.empty() && track.back().t == pb.t) track.pop_back();  // the frame solved again
-  while (!track.empty() && track.front().t < pb.t - kCreepStretch) track.pop_front();
-  bool creeping = false;
-  if (placed && !track.empty() && covers(track.front().t, pb.t)) {
-    const WheelDelta stretch = integrate(track.front().t, pb.t);
-    creeping = wheelsCreep(stretch, track.front().x, track.front().information, x_vision, rv.information);
-    if (creeping) w->slip_from = std::min(w->slip_from, track.front().t);
-  }
-  if (placed) track.push_back({pb.t, x_vision, rv.information});
-  SlipEvidence e;
-  e.wheels = &*w->delta;
-  e.T_b0_b1_fused = SE2::fromVector(w->x_prev).inverse() * SE2::fromVector(*x);
-  e.T_b0_b1_vision = SE2::fromVector(w->x_prev).inverse() * SE2::fromVector(x_vision);
-  e.fused_inliers = countTrusted(r->inlier);
-  e.vision_inliers = vision_inliers;
-  e.candidates = candidates;
-  e.strained = strained;
-  e.creeping = creeping;
-  e.was_slipping = slipping;
-  e.min_to_start = e.min_to_go_on = kMinVision;
-  if (!decideSlip(e)) return false;
-  *x = x_vision;
-  *r = std::move(rv);
-  markSlip(w->slip_from, pb.t);
-  if (slipIsSpin(*w->delta, e.T_b0_b1_vision) && (spins.empty() || spins.back() < pb.t)) spins.push_back(pb.t);
-  return true;
+  return e;
+}
+
+ArbiterOptions WheelInput::Impl::arbiterOptions() const {
+  ArbiterOptions a = ArbiterOptions::orbslam3();
+  a.check_slip = params.slip_check;
+  a.wheel_gate = params.wheel_gate && !params.huber && params.map_from_depth;
+  a.pose.huber = params.huber;
+  a.pose.barron_scale = params.barron_scale;
+  a.pose.out_of_plane = out_of_plane;
+  return a;
 }
 
 bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
@@ -344,41 +321,21 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   if (m.segmenter) m.applyLabels();
   m.makeEdges(pb);
   const std::size_t n = pb.matches.size();
-  const std::vector<char> trusted = m.trustedOf(pb);
-  const std::vector<PoseObservation> obs = m.poseObservations(pb, trusted);
-  PlanarPoseOptions opt;
-  opt.huber = m.params.huber;
-  opt.barron_scale = m.params.barron_scale;
-  opt.out_of_plane = m.out_of_plane;
-  Impl::WheelPriorOfFrame w = m.wheelPriorOf(pb);
-  Eigen::Vector3d x = m.planarOf(pb.T_c_w);
-  PlanarPoseResult r = optimisePlanarPose(*m.mono, m.stereo ? &*m.stereo : nullptr, obs,
-                                          WheelPrior{w.edge ? &*w.edge : nullptr, w.x_prev}, opt, &x);
-  const bool strained = w.edge && wheelEdgeStrained(*w.edge, w.x_prev, x);
-  const bool slip = w.edge && m.params.slip_check && m.checkSlip(pb, obs, trusted, opt, &w, strained, &x, &r);
-  // The wheel gate (rvwo::solveFromTheWheels; adaptive kernel, stereo and RGB-D), the estimator's:
-  // walkers no label marks drag the fused pose off the wheels a little every frame. Not from the
-  // anchor: vision back after frames on the wheels corrects their drift.
-  if (strained && !slip && !w.from_anchor && m.params.wheel_gate && !m.params.huber && m.params.map_from_depth) {
-    const Eigen::Vector3d x_predicted = (SE2::fromVector(w.x_prev) * w.delta->pose()).vector();
-    constexpr int kMinPlace = 30;  // ORB-SLAM3's bar for a tracked frame
-    PlanarPoseResult gated;
-    if (solveFromTheWheels(*m.mono, m.stereo ? &*m.stereo : nullptr, obs, WheelPrior{&*w.edge, w.x_prev}, opt,
-                           x_predicted, trusted, kMinPlace, &x, &gated)) {
-      r = std::move(gated);
-    }
+  const FrameDecision d = m.arbiter.decide(m.frameEvidence(pb));
+  if (d.slip) {
+    m.markSlip(d.slip_from, pb.t);
+    if (d.spin && (m.spins.empty() || m.spins.back() < pb.t)) m.spins.push_back(pb.t);
   }
-  m.slipping = slip;
-  m.solved = {pb.t, x, true, slip};
+  m.solved = {pb.t, d.x, true, d.slip};
   // Eq. 6: every match's latest whitened error (outliers included: that is the point).
   if (!m.params.huber) {
-    for (std::size_t k = 0; k < n; ++k) m.reliability.observe(pb.matches[k].id, std::nullopt, r.error[k]);
+    for (std::size_t k = 0; k < n; ++k) m.reliability.observe(pb.matches[k].id, std::nullopt, d.result.error[k]);
   }
-  out->T_c_w = m.cameraOf(x);
+  out->T_c_w = m.cameraOf(d.x);
   out->outlier.resize(n);
-  for (std::size_t k = 0; k < n; ++k) out->outlier[k] = !r.inlier[k];
-  out->inliers = r.inliers;
-  out->slip = slip;
+  for (std::size_t k = 0; k < n; ++k) out->outlier[k] = !d.result.inlier[k];
+  out->inliers = d.result.inliers;
+  out->slip = d.slip;
   return true;
 }
 

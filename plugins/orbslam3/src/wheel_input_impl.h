@@ -29,6 +29,7 @@
 #include "rvwo/semantics/label_lookup.h"
 #include "rvwo/semantics/onnx_segmenter.h"
 #include "rvwo/settings/settings.h"
+#include "rvwo/tracking/frame_arbiter.h"
 #include "rvwo/tracking/planar_pose.h"
 #include "rvwo/tracking/wheel_checks.h"
 #include "rvwo/tracking/window.h"
@@ -58,6 +59,7 @@ struct WheelInput::Impl {
       throw std::invalid_argument("WheelInputParams: mono_keyframe_travel must be > 0 m");
     out_of_plane.sigma_z = p.sigma_z;
     out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * p.sigma_rollpitch * p.sigma_rollpitch;
+    arbiter = FrameArbiter(arbiterOptions());
   }
   // Tracking calls everything but optimiseLocalMap, ORB-SLAM3's local mapping thread that: what
   // both read or write (the readings, the reliabilities, the slips) is guarded by this.
@@ -88,11 +90,12 @@ struct WheelInput::Impl {
   std::optional<PinholeCamera> camera;  // made with the first problem (ORB-SLAM3's intrinsics)
   std::optional<Se2XyzMonoEdge> mono;
   std::optional<Se2XyzStereoEdge> stereo;
-  // The last solve was a slip: the previous frame's last, or this frame's first (ORB-SLAM3 solves
-  // a frame up to twice, motion model then local map): the second solve refines the same frame,
-  // and goes on with a slip its first one found. (Judging it against the previous frame only
-  // measured no better: stereo slip ATE 0.0123 and 0.0137 m, against 0.0113 and 0.0169 m this way.)
-  bool slipping = false;
+  // The wheels against vision, solve by solve. ORB-SLAM3 solves a frame up to twice (motion model,
+  // then local map): the second solve refines the same frame and goes on with a slip its first one
+  // found. (Judging it against the previous frame only measured no better: stereo slip ATE 0.0123
+  // and 0.0137 m, against 0.0113 and 0.0169 m this way.)
+  FrameArbiter arbiter;
+  ArbiterOptions arbiterOptions() const;
   std::size_t slip_frames = 0;
   // Where the wheels were overruled, (from, to] on the camera's clock: a wheel edge of the local
   // map across one gets a Huber kernel (it measured motion that did not happen). A creep counts
@@ -187,17 +190,14 @@ struct WheelInput::Impl {
   // ---- a frame's pose (optimisePose)
   struct WheelPriorOfFrame {
     Eigen::Vector3d x_prev = Eigen::Vector3d::Zero();  // the edge's first pose
+    double t_prev = 0.0;                               // its time
     std::optional<WheelDelta> delta;
-    std::optional<WheelEdge> edge;
     bool from_anchor = false;  // after a stretch on the wheels alone
-    double slip_from = 0.0;    // where a slip found here starts
   };
   std::vector<char> trustedOf(const PoseProblem& pb) const;
   std::vector<PoseObservation> poseObservations(const PoseProblem& pb, const std::vector<char>& trusted) const;
   WheelPriorOfFrame wheelPriorOf(const PoseProblem& pb) const;
-  bool checkSlip(const PoseProblem& pb, const std::vector<PoseObservation>& obs, const std::vector<char>& trusted,
-                 const PlanarPoseOptions& opt, WheelPriorOfFrame* w, bool strained, Eigen::Vector3d* x,
-                 PlanarPoseResult* r);
+  FrameEvidence frameEvidence(const PoseProblem& pb) const;
   // ---- the local map (optimiseLocalMap)
   WindowProblem windowProblem(const LocalMapProblem& pb, std::vector<Span>* spans);
   WindowOptions windowOptions(const ceres_adapters::WheelCalibrationEstimate& cal, const bool* stop) const;
@@ -214,18 +214,6 @@ struct WheelInput::Impl {
     bool set = false;
     bool slip = false;  // vision alone overruled the wheels
   } solved, anchor;
-
-  // Vision alone's recent poses (each frame's last solve without the wheel edge, where it placed
-  // the frame), over the stretch wheelsCreep judges: kCreepStretch, long enough for a creep of a
-  // few millimetres a frame to add up beyond what it allows (8 mm a frame: 3 to 6 frames), short
-  // enough for the map's errors and the wheels' calibration to stay within it (wheelsCreep).
-  static constexpr double kCreepStretch = 0.5;  // s
-  struct Seen {
-    double t;
-    Eigen::Vector3d x;
-    Eigen::Matrix3d information;
-  };
-  std::deque<Seen> vision_track;
 
   // ---- labels
   SemanticPriors priors;
