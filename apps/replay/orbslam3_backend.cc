@@ -59,15 +59,11 @@ OrbSlam3Backend::OrbSlam3Backend(const estimator::Rig& rig, const estimator::Est
   w.radius_right = opt.drive.radius_right;
   w.track = opt.drive.track;
   w.huber = opt.kernel == estimator::KernelChoice::kHuber;
-  w.barron_scale = opt.barron_scale;
-  w.sigma_z = opt.out_of_plane.sigma_z;
-  w.sigma_rollpitch = std::sqrt(opt.out_of_plane.sigma_rollpitch(0, 0));
-  if (const auto v = settings.number("Tracking.SlipCheck")) w.slip_check = *v != 0;
-  w.wheel_gate = opt.wheel_gate;  // Estimator.WheelGate
+  w.tracking = readTrackingOptions(settings, w.tracking);  // Tracking.*, over the plugin's defaults
   w.calibrate = opt.calibrate;
   if (const auto v = settings.number("LocalMapping.Planar")) w.local_map = *v != 0;
   if (const auto v = settings.number("LocalMapping.MaxWheelSpan")) w.max_wheel_span = *v;
-  w.spin_min_frames = opt.slip_hold_min_frames;  // one key for both hosts: Estimator.SlipHoldMinFrames
+  w.spin_min_frames = w.tracking.slip_hold_min_frames;  // one key for both hosts: Tracking.SlipHoldMinFrames
   std::vector<std::pair<std::string, std::string>> more;
   for (const char* prefix :
        {"Odometry.Noise", "Odometry.CalibrateDistance", "Odometry.CalibrationConstant", "Reliability.", "Semantics.",

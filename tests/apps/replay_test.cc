@@ -213,7 +213,7 @@ TEST(Replay, DynamicAdaptiveKernelBeatsHuber) {
 
 // Walkers no label marks drag the fused pose off the wheels a few millimetres and milliradians a
 // frame, each frame's wheel edge starting where the last one was dragged. The wheel gate
-// (Estimator.WheelGate) solves such a frame again from the wheels' prediction, first on the
+// (Tracking.WheelGate) solves such a frame again from the wheels' prediction, first on the
 // landmarks it explains. This cut (seed 3) measured 0.0031 m (0.057 %) with it and 0.0221 m
 // (0.404 %) without; over five seeds' cuts 1.61 against 2.11 % summed, one of them worse
 // (seed 1, above).
@@ -221,7 +221,7 @@ TEST(Replay, WalkersNoLabelMarksLoseToTheWheelGate) {
   const fs::path dir = simulate("dynamic", 30, "", 3);
   {
     std::ofstream off(dir / "no_gate.yaml");
-    off << slurp(dir / "settings.yaml") << "\nEstimator.WheelGate: 0\n";
+    off << slurp(dir / "settings.yaml") << "\nTracking.WheelGate: 0\n";
   }
   const Outcome gated = replay(dir, "--no-semantics", "gated");
   const Outcome plain = replay(dir, "--no-semantics", "plain", "no_gate.yaml");
@@ -426,7 +426,7 @@ TEST(Replay, RelocalisesWhenTheWheelsSpunWhileBlind) {
 // A slip (8-9 s: the wheels spin, the robot stands), vision drives on for a second, then goes
 // dark (10-11.5 s) while the robot drives at 0.26 m/s. The slip is over: the wheels carry the pose
 // through the blackout. (Holding it where vision left it, as a blackout that starts in a slip
-// does, held it for the second left of Estimator.SlipHold, some 0.26 m behind the robot: 0.54 %
+// does, held it for the second left of Tracking.SlipHold, some 0.26 m behind the robot: 0.54 %
 // of the path once relocalisation had bent the stretch.)
 TEST(Replay, BlackoutAfterASlipEndedFollowsTheWheels) {
   const fs::path scenario =

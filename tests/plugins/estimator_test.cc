@@ -290,8 +290,8 @@ Camera.T_b_c: !!opencv-matrix
    dt: d
    data: [0, 0, 1, 0.25, -1, 0, 0, 0, 0, -1, 0, 0.4, 0, 0, 0, 1]
 Estimator.Features: 800
-Estimator.SlipHold: 1.5
-Estimator.TrustedMaxPs: 0.2
+Tracking.SlipHold: 1.5
+Tracking.TrustedMaxPs: 0.2
 Reliability.Ph: 0.8
 )";
 
@@ -304,18 +304,18 @@ TEST(Options, FromSettings) {
   EXPECT_DOUBLE_EQ(rig.T_b_c.linear()(1, 0), -1.0);
   const EstimatorOptions o = readEstimatorOptions(s);
   EXPECT_EQ(o.features, 800);
-  EXPECT_DOUBLE_EQ(o.slip_hold, 1.5);
-  EXPECT_DOUBLE_EQ(o.trusted_max_ps, 0.2);
-  EXPECT_EQ(o.slip_hold_min_frames, 3);  // the default where the file is silent
-  EXPECT_TRUE(o.wheel_gate);             // on by default
+  EXPECT_DOUBLE_EQ(o.tracking.slip_hold, 1.5);
+  EXPECT_DOUBLE_EQ(o.tracking.trusted_max_ps, 0.2);
+  EXPECT_EQ(o.tracking.slip_hold_min_frames, 3);  // the default where the file is silent
+  EXPECT_TRUE(o.tracking.wheel_gate);             // on by default
   EXPECT_DOUBLE_EQ(o.mono_max_mapping_lag, 0.25);
   EXPECT_DOUBLE_EQ(readEstimatorOptions(rvwo::Settings::fromString(
                                             std::string(kSettings) + "Estimator.MonoMaxMappingLag: 0\n", "s.yaml"))
                        .mono_max_mapping_lag,
                    0.0);
   EXPECT_FALSE(
-      readEstimatorOptions(rvwo::Settings::fromString(std::string(kSettings) + "Estimator.WheelGate: 0\n", "s.yaml"))
-          .wheel_gate);
+      readEstimatorOptions(rvwo::Settings::fromString(std::string(kSettings) + "Tracking.WheelGate: 0\n", "s.yaml"))
+          .tracking.wheel_gate);
   EXPECT_DOUBLE_EQ(o.reliability.p_h, 0.8);
 }
 
@@ -345,10 +345,10 @@ TEST(Options, ErrorsNameTheKey) {
     std::string c = y;
     return c.replace(c.find(from), from.size(), to);
   };
-  EXPECT_NE(message(with("SlipHold: 1.5", "SlipHold: -1")).find("Estimator.SlipHold: >= 0"), std::string::npos);
-  EXPECT_NE(message(y + "Estimator.SlipHoldMinFrames: 0\n").find("Estimator.SlipHoldMinFrames"), std::string::npos);
-  EXPECT_NE(message(y + "Estimator.SlipMinInliers: 0.5\n").find("Estimator.SlipMinInliers"), std::string::npos);
-  EXPECT_NE(message(with("TrustedMaxPs: 0.2", "TrustedMaxPs: 0")).find("Estimator.TrustedMaxPs"), std::string::npos);
+  EXPECT_EQ(message(with("SlipHold: 1.5", "SlipHold: -1")), "s.yaml: tracking options: Tracking.SlipHold: >= 0 s");
+  EXPECT_NE(message(y + "Tracking.SlipHoldMinFrames: 0\n").find("Tracking.SlipHoldMinFrames"), std::string::npos);
+  EXPECT_NE(message(y + "Tracking.SlipMinInliers: 0.5\n").find("Tracking.SlipMinInliers"), std::string::npos);
+  EXPECT_NE(message(with("TrustedMaxPs: 0.2", "TrustedMaxPs: 0")).find("Tracking.TrustedMaxPs"), std::string::npos);
   EXPECT_NE(message(y + "Estimator.MonoMaxMappingLag: -0.1\n").find("Estimator.MonoMaxMappingLag: >= 0"),
             std::string::npos);
 }

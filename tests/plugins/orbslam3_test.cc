@@ -282,7 +282,7 @@ void configureWheels(WheelInput& w, const Eigen::Isometry3d& T_b_c, const std::f
                      bool slip_check = true) {
   WheelInputParams p;
   p.T_b_c = T_b_c;
-  p.slip_check = slip_check;
+  p.tracking.slip_check = slip_check;
   w.configure(p);
   addReadings(w, claimed);
 }
@@ -484,7 +484,7 @@ TEST(WheelInputPose, WalkersNoLabelMarksAreHeldOffByTheWheelGate) {
     WheelInput w;
     WheelInputParams p;
     p.T_b_c = T_b_c;
-    p.wheel_gate = gate;
+    p.tracking.wheel_gate = gate;
     w.configure(p);
     addReadings(w, drive);
     PoseSolution s;

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "../common/temp.h"
 
@@ -80,6 +81,67 @@ TEST(Settings, SemanticPriorsFromYamlAndAUserFile) {
   expectError(
       [] { readSemanticPriors(Settings::fromString("%YAML:1.0\nSemantics.LabelSet: \"cityscapes\"\n", "l.yaml")); },
       "l.yaml: Semantics.LabelSet: unknown label set 'cityscapes'");
+}
+
+// Tracking.*: both hosts' one namespace. The estimator's old names are still read, each with one
+// line of warning (once per file and key); both names given is an error; what
+// writeTrackingOptions writes reads back the same.
+TEST(Settings, TrackingOptionsUnderTheirNameAndTheOldOne) {
+  const Settings s = Settings::fromString(
+      "%YAML:1.0\nTracking.MinInliers: 25\nTracking.WheelGate: 0\nEstimator.TrustedMaxPs: 0.2\n"
+      "Estimator.SigmaRollPitch: 0.02\n",
+      "t.yaml");
+  std::ostringstream warnings;
+  TrackingOptions defaults;
+  defaults.slip_hold = 1.5;  // the host's default where the file is silent
+  const TrackingOptions o = readTrackingOptions(s, defaults, &warnings);
+  EXPECT_EQ(o.min_inliers, 25);
+  EXPECT_FALSE(o.wheel_gate);
+  EXPECT_DOUBLE_EQ(o.trusted_max_ps, 0.2);
+  EXPECT_DOUBLE_EQ(o.sigma_rollpitch, 0.02);
+  EXPECT_DOUBLE_EQ(o.slip_hold, 1.5);
+  EXPECT_TRUE(o.slip_check);
+  EXPECT_EQ(warnings.str(),
+            "t.yaml: Estimator.TrustedMaxPs is now Tracking.TrustedMaxPs (read under its old name for now; rename "
+            "it)\nt.yaml: Estimator.SigmaRollPitch is now Tracking.SigmaRollPitch (read under its old name for now; "
+            "rename it)\n");
+  std::ostringstream again;
+  readTrackingOptions(s, {}, &again);
+  EXPECT_EQ(again.str(), "");  // once per file and key
+
+  auto message = [](const std::string& body) {
+    try {
+      std::ostringstream ignored;
+      readTrackingOptions(Settings::fromString("%YAML:1.0\n" + body, "b.yaml"), {}, &ignored);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message("Tracking.SlipHold: 1\nEstimator.SlipHold: 3\n"),
+            "b.yaml: Tracking.SlipHold and its old name Estimator.SlipHold are both given; keep Tracking.SlipHold");
+  EXPECT_EQ(message("Tracking.MinInliers: 20.5\n"), "b.yaml: Tracking.MinInliers must be a whole number");
+  EXPECT_EQ(message("Tracking.MinInliers: 3\n"), "b.yaml: tracking options: Tracking.MinInliers: >= 6");
+  EXPECT_EQ(message("Tracking.BarronScale: 0\n"), "b.yaml: tracking options: Tracking.BarronScale: > 0");
+
+  TrackingOptions w;
+  w.min_inliers = 30;
+  w.slip_min_inliers = 2.5;
+  w.trusted_max_ps = 0.1;
+  w.slip_check = false;
+  w.sigma_z = 0.013;
+  std::ostringstream yaml;
+  yaml << "%YAML:1.0\n";
+  writeTrackingOptions(yaml, w);
+  std::ostringstream none;
+  const TrackingOptions r = readTrackingOptions(Settings::fromString(yaml.str(), "w.yaml"), {}, &none);
+  EXPECT_EQ(r.min_inliers, 30);
+  EXPECT_EQ(r.slip_min_inliers, 2.5);
+  EXPECT_EQ(r.trusted_max_ps, 0.1);
+  EXPECT_FALSE(r.slip_check);
+  EXPECT_EQ(r.sigma_z, 0.013);
+  EXPECT_EQ(r.slip_hold, w.slip_hold);
+  EXPECT_EQ(none.str(), "");
 }
 
 }  // namespace

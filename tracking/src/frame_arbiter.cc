@@ -17,7 +17,6 @@ int countTrusted(const std::vector<char>& inlier, const std::vector<char>& trust
 
 ArbiterOptions ArbiterOptions::estimator(bool mono) {
   ArbiterOptions a;
-  a.min_inliers = 20;
   a.after_blind = 3;
   a.overrule = 1;
   a.judge_every_frame = false;
@@ -27,18 +26,27 @@ ArbiterOptions ArbiterOptions::estimator(bool mono) {
   return a;
 }
 
-// ORB-SLAM3's bar for a tracked frame (30 inliers), twice over for vision alone to overrule the
+// Twice the bar (ORB-SLAM3's 30 inliers: WheelInputParams) for vision alone to overrule the
 // wheels; the slip judged on every solve, with the creep test over vision alone's own track
 // (solved every frame: 0.5 to 2 ms for 100 to 300 matches, rvwo_bench_tracking).
 ArbiterOptions ArbiterOptions::orbslam3() {
   ArbiterOptions a;
-  a.min_inliers = 30;
   a.after_blind = 1;
   a.overrule = 2;
   a.judge_every_frame = true;
   a.bound_miss_after_slip = false;
   a.drift = DriftTest::kCreep;
   return a;
+}
+
+ArbiterOptions& ArbiterOptions::apply(const TrackingOptions& t) {
+  min_inliers = t.min_inliers;
+  slip_start = t.slip_min_inliers;
+  check_slip = t.slip_check;
+  wheel_gate = wheel_gate && t.wheel_gate;
+  pose.barron_scale = t.barron_scale;
+  pose.out_of_plane = t.outOfPlane();
+  return *this;
 }
 
 FrameArbiter::FrameArbiter(const ArbiterOptions& options) : options_(options) {

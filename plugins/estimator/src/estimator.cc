@@ -27,7 +27,6 @@ void EstimatorOptions::validate() const {
   if (levels < 1 || levels > 12) fail("Estimator.Levels: 1 to 12");
   if (fast_threshold < 1 || fast_threshold > 100) fail("Estimator.FastThreshold: 1 to 100");
   if (!(search_radius > 0)) fail("Estimator.SearchRadius: > 0");
-  if (min_inliers < 6) fail("Estimator.MinInliers: >= 6");
   if (keyframe_max_frames < 1) fail("Estimator.KeyFrameMaxFrames: >= 1");
   if (!(keyframe_ratio > 0 && keyframe_ratio < 1)) fail("Estimator.KeyFrameRatio: in (0, 1)");
   if (window < 2) fail("Estimator.Window: >= 2");
@@ -36,12 +35,9 @@ void EstimatorOptions::validate() const {
   if (!(sigma_px > 0)) fail("Estimator.SigmaPx: > 0");
   if (!(mono_min_baseline > 0)) fail("Estimator.MonoMinBaseline: > 0");
   if (!(mono_min_parallax > 0 && mono_min_parallax < 45)) fail("Estimator.MonoMinParallax: in (0, 45) degrees");
-  if (!(slip_hold >= 0)) fail("Estimator.SlipHold: >= 0 s");
-  if (slip_hold_min_frames < 1) fail("Estimator.SlipHoldMinFrames: >= 1");
-  if (!(slip_min_inliers >= 1)) fail("Estimator.SlipMinInliers: >= 1 (times Estimator.MinInliers)");
-  if (!(trusted_max_ps > 0 && trusted_max_ps <= 1)) fail("Estimator.TrustedMaxPs: in (0, 1]");
   if (kernel == KernelChoice::kFixed && std::isnan(fixed_alpha)) fail("kernel fixed: alpha is NaN");
   if (!(calibration_period > 0)) fail("calibration_period: > 0 s");
+  tracking.validate();
   reliability.validate();
   wheel_noise.validate();
   drive.validate();

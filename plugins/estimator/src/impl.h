@@ -262,7 +262,7 @@ struct Estimator::Impl {
 
   double kernelAlpha(std::uint64_t point) const;
 
-  // A landmark no label has called dynamic (P_s below Estimator.TrustedMaxPs),
+  // A landmark no label has called dynamic (P_s below Tracking.TrustedMaxPs),
   // and, with labels coming from the segmentation thread, not one whose keyframe still waits for
   // its labels: a keyframe's new points are the closest features, often a walker's, and counted
   // as trusted for the frame or two until its labels came they placed frames and made vision
@@ -306,7 +306,7 @@ struct Estimator::Impl {
   // feature with depth is matched by descriptor with the trusted landmarks (Hamming <= 50, clearly
   // better than the second best, at the same height within 0.2 m: the robot stays on its floor);
   // two pairs fix an SE(2) pose from their ground-plane positions (RANSAC, a fixed seed); the best
-  // pose, if 3 x Estimator.MinInliers pairs agree with it, seeds the projection search and the pose
+  // pose, if 3 x Tracking.MinInliers pairs agree with it, seeds the projection search and the pose
   // optimisation. (Map lock held.)
   std::optional<Eigen::Vector3d> relocalise(const Features& f);
 
@@ -379,7 +379,7 @@ struct Estimator::Impl {
   void relocaliseBlindFrame(FrameWork* w);
 
   // Blind right after a slip, the wheels are the last to trust: the pose stays where vision left
-  // it (for at most Estimator.SlipHold), and its frames count as the spin they hold. Only a blind
+  // it (for at most Tracking.SlipHold), and its frames count as the spin they hold. Only a blind
   // stretch that starts in the slip holds: once vision has seen the robot drive on, the slip is
   // over (docs/decisions/0009).
   void holdAfterSlip(FrameWork* w);
@@ -464,7 +464,7 @@ struct Estimator::Impl {
                               std::vector<int>* features) const;
 
   // Wheel edges between keyframes consecutive in time, one end at least free: Huber across a slip
-  // tracking caught; across a spin (Estimator.SlipHoldMinFrames frames or more where the robot
+  // tracking caught; across a spin (Tracking.SlipHoldMinFrames frames or more where the robot
   // about stood while the wheels went on) out of the first round, stereo and RGB-D only (mono's
   // window takes its scale from them; docs/decisions/0003).
   void addWheelEdges(WindowProblem* pb, const std::vector<std::uint64_t>& kf_ids);

@@ -43,7 +43,7 @@ bool Estimator::Impl::isTrusted(std::uint64_t point) const {
     }
   }
   const std::optional<LandmarkReliability> r = reliability.get(point);
-  return !r || r->ps < opt.trusted_max_ps;
+  return !r || r->ps < opt.tracking.trusted_max_ps;
 }
 
 std::vector<char> Estimator::Impl::trustedOf(const std::vector<Match>& matches) const {

@@ -184,15 +184,15 @@ void Estimator::Impl::addWheelEdges(WindowProblem* pb, const std::vector<std::ui
     if (!d) continue;
     const SlipCount slips = slipsBetween(ka.t, kb.t);
     pb->wheels.push_back({static_cast<int>(a), static_cast<int>(b), *d, slips.frames > 0,
-                          rig.sensor != Sensor::kMono && slips.spins >= opt.slip_hold_min_frames});
+                          rig.sensor != Sensor::kMono && slips.spins >= opt.tracking.slip_hold_min_frames});
   }
 }
 
 WindowOptions Estimator::Impl::windowOptions() const {
   WindowOptions wo;
   wo.huber = opt.kernel == KernelChoice::kHuber;
-  wo.barron_scale = opt.barron_scale;
-  wo.out_of_plane = opt.out_of_plane;
+  wo.barron_scale = opt.tracking.barron_scale;
+  wo.out_of_plane = opt.tracking.outOfPlane();
   wo.min_views = rig.sensor == Sensor::kMono ? 2 : 1;  // a mono point needs two views for its depth
   wo.outliers_leave = true;
   wo.drop_slipping_wheel_edges = true;

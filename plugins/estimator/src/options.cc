@@ -123,7 +123,6 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Estimator.Levels", &o.levels);
   num("Estimator.FastThreshold", &o.fast_threshold);
   num("Estimator.SearchRadius", &o.search_radius);
-  num("Estimator.MinInliers", &o.min_inliers);
   num("Estimator.CloseDepthBaselines", &o.max_depth_baselines);
   num("Estimator.MonoMinBaseline", &o.mono_min_baseline);
   num("Estimator.MonoMinParallax", &o.mono_min_parallax);
@@ -133,16 +132,8 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Estimator.KeepKeyFrames", &o.keep_keyframes);
   num("Estimator.MonoMaxMappingLag", &o.mono_max_mapping_lag);
   num("Estimator.SigmaPx", &o.sigma_px);
-  num("Estimator.BarronScale", &o.barron_scale);
   num("Estimator.LabelDilation", &o.label_dilation_px);
-  num("Estimator.SlipMinInliers", &o.slip_min_inliers);
-  num("Estimator.SlipHold", &o.slip_hold);
-  num("Estimator.SlipHoldMinFrames", &o.slip_hold_min_frames);
-  num("Estimator.TrustedMaxPs", &o.trusted_max_ps);
-  if (const auto v = s.number("Estimator.WheelGate")) o.wheel_gate = *v != 0;
-  num("Estimator.SigmaZ", &o.out_of_plane.sigma_z);
-  if (const auto v = s.number("Estimator.SigmaRollPitch"))
-    o.out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * (*v) * (*v);
+  o.tracking = readTrackingOptions(s, o.tracking);
   o.wheel_noise = readWheelNoise(s, o.wheel_noise);
   o.drive = readDiffDrive(s, o.drive);
   if (const auto v = s.number("Odometry.Calibrate")) o.calibrate = *v != 0;

@@ -11,7 +11,7 @@ bool Estimator::Impl::chi2(bool stereo, const Eigen::Vector3d& x, const Eigen::V
   o.z = z;
   o.stereo = stereo;
   o.sigma_px = sigma;
-  return whitenedChi2(mono_edge, stereo_edge ? &*stereo_edge : nullptr, o, x, opt.out_of_plane, out);
+  return whitenedChi2(mono_edge, stereo_edge ? &*stereo_edge : nullptr, o, x, poseOptions().out_of_plane, out);
 }
 
 std::vector<Match> Estimator::Impl::searchByProjection(const Features& f, const Eigen::Vector3d& x,
@@ -50,7 +50,7 @@ std::vector<Match> Estimator::Impl::searchByProjection(const Features& f, const 
 std::optional<Eigen::Vector3d> Estimator::Impl::relocalise(const Features& f) {
   if (rig.sensor == Sensor::kMono) return std::nullopt;
   // A seed: the projection search and the pose optimisation after it decide.
-  const std::size_t enough = static_cast<std::size_t>(opt.min_inliers);
+  const std::size_t enough = static_cast<std::size_t>(opt.tracking.min_inliers);
   std::vector<std::uint64_t> ids;
   cv::Mat map_descriptors;
   for (const auto& [id, p] : points) {
@@ -188,8 +188,8 @@ void Estimator::Impl::processFrame(const FrameInput& in, std::future<FrontEnd> f
   trackLocalMap(&w);
   // Do this frame's own trusted landmarks say the wheels are wrong? Judged here, on the match
   // set the slip check counted, before a relocalisation replaces it (see the blind keyframe).
-  w.contradicts_wheels = w.candidates >= opt.min_inliers / 2 && w.countTrusted(w.inlier) < 0.6 * w.candidates &&
-                         w.vision_alone_placed >= 0.6 * w.candidates;
+  w.contradicts_wheels = w.candidates >= opt.tracking.min_inliers / 2 &&
+                         w.countTrusted(w.inlier) < 0.6 * w.candidates && w.vision_alone_placed >= 0.6 * w.candidates;
   if (!w.visual && !last_visual) relocaliseBlindFrame(&w);
   holdAfterSlip(&w);
   const bool make_kf = keepFrame(&w, &record);
@@ -214,7 +214,7 @@ void Estimator::Impl::trackLocalMap(FrameWork* w) {
   auto t2 = Clock::now();
   w->x = w->predicted.vector();
   w->matches = searchByProjection(w->f, w->x, last_visual ? 1.0 : 2.0);
-  if (static_cast<int>(w->matches.size()) < 2 * opt.min_inliers && !w->delta) {
+  if (static_cast<int>(w->matches.size()) < 2 * opt.tracking.min_inliers && !w->delta) {
     w->matches = searchByProjection(w->f, w->x, 3.0);  // no wheels: the motion model may be far off
   }
   timings.add("match", msSince(t2));
@@ -257,13 +257,9 @@ FrameEvidence Estimator::Impl::frameEvidence(const FrameWork& w) {
 }
 
 ArbiterOptions Estimator::Impl::arbiterOptions(const Rig& r, const EstimatorOptions& o) {
-  ArbiterOptions a = ArbiterOptions::estimator(r.sensor == Sensor::kMono);
-  a.min_inliers = o.min_inliers;
-  a.slip_start = o.slip_min_inliers;
-  a.wheel_gate = a.wheel_gate && o.wheel_gate && o.kernel == KernelChoice::kAdaptive;
+  ArbiterOptions a = ArbiterOptions::estimator(r.sensor == Sensor::kMono).apply(o.tracking);
+  a.wheel_gate = a.wheel_gate && o.kernel == KernelChoice::kAdaptive;
   a.pose.huber = o.kernel == KernelChoice::kHuber;
-  a.pose.barron_scale = o.barron_scale;
-  a.pose.out_of_plane = o.out_of_plane;
   return a;
 }
 
@@ -290,23 +286,23 @@ void Estimator::Impl::relocaliseBlindFrame(FrameWork* w) {
     w->trusted = trustedOf(w->matches);
     const int placed = w->countTrusted(w->inlier);
     int run = 0;  // trusted inliers summed over the agreeing relocalisations ending here
-    if (placed >= opt.min_inliers) {
+    if (placed >= opt.tracking.min_inliers) {
       const bool agrees =
           relocalised_run.placed > 0 && relocalised_run.t == last_t && w->delta &&
           onTheClaimedWay(*w->delta, SE2::fromVector(relocalised_run.x).inverse() * SE2::fromVector(w->x));
       run = (agrees ? relocalised_run.placed : 0) + placed;
       relocalised_run = {w->t, w->x, run};
     }
-    const bool enough = placed >= 3 * opt.min_inliers || (run > placed && run >= 4 * opt.min_inliers);
-    w->visual = enough && (placed >= 10 * opt.min_inliers || onTheWheelsWay(w->x, w->t));
+    const bool enough = placed >= 3 * opt.tracking.min_inliers || (run > placed && run >= 4 * opt.tracking.min_inliers);
+    w->visual = enough && (placed >= 10 * opt.tracking.min_inliers || onTheWheelsWay(w->x, w->t));
     if (w->visual) ++counters.relocalisations;
   }
   timings.add("relocalise", msSince(t5));
 }
 
 void Estimator::Impl::holdAfterSlip(FrameWork* w) {
-  w->after_slip = !w->visual && !arbiter.slipping() && w->t - last_slip_t <= opt.slip_hold &&
-                  slip_run >= opt.slip_hold_min_frames && (holding || w->was_slipping);
+  w->after_slip = !w->visual && !arbiter.slipping() && w->t - last_slip_t <= opt.tracking.slip_hold &&
+                  slip_run >= opt.tracking.slip_hold_min_frames && (holding || w->was_slipping);
   holding = w->after_slip;
   if (!w->after_slip) return;
   // Held still while the wheels went on, as far as the map knows: a spin, whose wheel edge sits
@@ -381,18 +377,18 @@ bool Estimator::Impl::keyFrameDue(const FrameWork& w, const SE2& T_w_b, const st
   if (rig.sensor == Sensor::kMono) {
     // Mono: once the wheels have moved the camera far enough for a baseline.
     return (T_w_c(T_w_b.vector()).translation() - T_w_c(ref_kf.x).translation()).norm() >= opt.mono_min_baseline &&
-           static_cast<int>(w.f.size()) >= 4 * opt.min_inliers;
+           static_cast<int>(w.f.size()) >= 4 * opt.tracking.min_inliers;
   }
   const int with_depth =
       static_cast<int>(std::count_if(w.f.depth.begin(), w.f.depth.end(), [](float d) { return d > 0; }));
   // Not while the landmarks in view say the wheels are wrong: walkers covering most of the view
   // leave too few for vision to place the frame, yet most of the static ones left agree on a pose
   // of their own, away from the wheels', the way a slip makes them; a map restarted there is the
-  // slip's. The doubt holds until vision places a frame, or for Estimator.SlipHold after the last
+  // slip's. The doubt holds until vision places a frame, or for Tracking.SlipHold after the last
   // such frame (as the wheels run away from the map its landmarks leave the projection search).
   if (w.contradicts_wheels) wheels_doubted_t = w.t;
-  const bool doubted = w.t - wheels_doubted_t <= opt.slip_hold;
-  return frames_since_kf >= 3 && with_depth >= 4 * opt.min_inliers && !w.after_slip && !doubted;
+  const bool doubted = w.t - wheels_doubted_t <= opt.tracking.slip_hold;
+  return frames_since_kf >= 3 && with_depth >= 4 * opt.tracking.min_inliers && !w.after_slip && !doubted;
 }
 
 bool Estimator::Impl::onTheWheelsWay(const Eigen::Vector3d& x, double t) {

@@ -45,7 +45,7 @@ WindowOptions WheelInput::Impl::windowOptions(const ceres_adapters::WheelCalibra
                                               const bool* stop) const {
   WindowOptions o;
   o.huber = params.huber;
-  o.barron_scale = params.barron_scale;
+  o.barron_scale = params.tracking.barron_scale;
   o.out_of_plane = out_of_plane;
   o.min_views = 1;
   o.outliers_leave = false;

@@ -16,6 +16,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "rvwo/settings/settings.h"
+
 namespace rvwo::orbslam3 {
 namespace {
 
@@ -88,11 +90,8 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
         << "\nOdometry.WheelRadiusRight: " << real(wheels->radius_right) << "\nOdometry.Track: " << real(wheels->track)
         << "\n";
     out << "Tracking.Planar: " << (wheels->planar ? 1 : 0) << "\nTracking.Kernel: \""
-        << (wheels->huber ? "huber" : "adaptive") << "\"\nTracking.BarronScale: " << real(wheels->barron_scale)
-        << "\nTracking.SigmaZ: " << real(wheels->sigma_z)
-        << "\nTracking.SigmaRollPitch: " << real(wheels->sigma_rollpitch)
-        << "\nTracking.SlipCheck: " << (wheels->slip_check ? 1 : 0)
-        << "\nTracking.WheelGate: " << (wheels->wheel_gate ? 1 : 0) << "\n";
+        << (wheels->huber ? "huber" : "adaptive") << "\"\n";
+    writeTrackingOptions(out, wheels->tracking);
     out << "LocalMapping.Planar: " << (wheels->local_map ? 1 : 0)
         << "\nLocalMapping.MaxWheelSpan: " << real(wheels->max_wheel_span)
         << "\nLocalMapping.SpinMinFrames: " << wheels->spin_min_frames

@@ -33,11 +33,7 @@ void WheelInput::configure(const std::string& settings_path) {
   if (kernel != "adaptive" && kernel != "huber")
     throw std::invalid_argument(settings_path + ": Tracking.Kernel is '" + kernel + "', not adaptive or huber");
   p.huber = kernel == "huber";
-  p.barron_scale = s.number("Tracking.BarronScale").value_or(p.barron_scale);
-  p.sigma_z = s.number("Tracking.SigmaZ").value_or(p.sigma_z);
-  p.sigma_rollpitch = s.number("Tracking.SigmaRollPitch").value_or(p.sigma_rollpitch);
-  p.slip_check = s.number("Tracking.SlipCheck").value_or(1.0) != 0.0;
-  p.wheel_gate = s.number("Tracking.WheelGate").value_or(1.0) != 0.0;
+  p.tracking = readTrackingOptions(s, p.tracking);
   p.local_map = s.number("LocalMapping.Planar").value_or(1.0) != 0.0;
   p.max_wheel_span = s.number("LocalMapping.MaxWheelSpan").value_or(p.max_wheel_span);
   const double spin_frames = s.number("LocalMapping.SpinMinFrames").value_or(p.spin_min_frames);
@@ -65,9 +61,6 @@ void WheelInput::configure(const std::string& settings_path) {
     throw std::invalid_argument(settings_path +
                                 ": Segmentation.LabelDilation must be a whole number of pixels, 0 to 100");
   p.label_dilation_px = static_cast<int>(dilation);
-  if (!(p.barron_scale > 0) || !(p.sigma_z >= 0) || !(p.sigma_rollpitch >= 0))
-    throw std::invalid_argument(settings_path +
-                                ": Tracking.BarronScale must be > 0, Tracking.SigmaZ and .SigmaRollPitch >= 0");
   try {
     impl_ = std::make_unique<Impl>(p, readWheelNoise(s), readReliability(s), readSemanticPriors(s));
   } catch (const std::invalid_argument& e) {
@@ -247,7 +240,7 @@ std::vector<char> WheelInput::Impl::trustedOf(const PoseProblem& pb) const {
   std::vector<char> trusted(pb.matches.size());
   for (std::size_t k = 0; k < pb.matches.size(); ++k) {
     const std::optional<LandmarkReliability> rel = reliability.get(pb.matches[k].id);
-    trusted[k] = (!rel || rel->ps < kTrustedMaxPs) && (!need_label || (rel && rel->labelled > 0));
+    trusted[k] = (!rel || rel->ps < params.tracking.trusted_max_ps) && (!need_label || (rel && rel->labelled > 0));
   }
   return trusted;
 }
@@ -305,12 +298,9 @@ FrameEvidence WheelInput::Impl::frameEvidence(const PoseProblem& pb) const {
 }
 
 ArbiterOptions WheelInput::Impl::arbiterOptions() const {
-  ArbiterOptions a = ArbiterOptions::orbslam3();
-  a.check_slip = params.slip_check;
-  a.wheel_gate = params.wheel_gate && !params.huber && params.map_from_depth;
+  ArbiterOptions a = ArbiterOptions::orbslam3().apply(params.tracking);
+  a.wheel_gate = a.wheel_gate && !params.huber && params.map_from_depth;
   a.pose.huber = params.huber;
-  a.pose.barron_scale = params.barron_scale;
-  a.pose.out_of_plane = out_of_plane;
   return a;
 }
 

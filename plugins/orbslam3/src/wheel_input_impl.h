@@ -36,10 +36,6 @@
 
 namespace rvwo::orbslam3 {
 
-// A point whose P_s (eq. 4) is below this counts as vision's evidence against the wheels (the
-// estimator's Estimator.TrustedMaxPs default).
-inline constexpr double kTrustedMaxPs = 0.1;
-
 inline SE2 planar(const Eigen::Isometry3d& T) {
   return SE2(T.translation().x(), T.translation().y(), std::atan2(T.linear()(1, 0), T.linear()(0, 0)));
 }
@@ -57,8 +53,8 @@ struct WheelInput::Impl {
     calibration.counting = p.calibration_constant;
     if (!(p.mono_keyframe_travel > 0))
       throw std::invalid_argument("WheelInputParams: mono_keyframe_travel must be > 0 m");
-    out_of_plane.sigma_z = p.sigma_z;
-    out_of_plane.sigma_rollpitch = Eigen::Matrix2d::Identity() * p.sigma_rollpitch * p.sigma_rollpitch;
+    p.tracking.validate();
+    out_of_plane = p.tracking.outOfPlane();
     arbiter = FrameArbiter(arbiterOptions());
   }
   // Tracking calls everything but optimiseLocalMap, ORB-SLAM3's local mapping thread that: what

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "rvwo/edges/wheel_preintegration.h"
+#include "rvwo/tracking/options.h"
 #include "rvwo/tracking/planar_pose.h"
 
 namespace rvwo {
@@ -30,22 +31,25 @@ enum class DriftTest {
 // The bars and tests a host runs. Counts are of trusted inliers (landmarks no label has called
 // dynamic); docs/decisions/0011 gives both hosts' values where they differ.
 struct ArbiterOptions {
-  int min_inliers = 20;            // trusted inliers that place a frame (Estimator.MinInliers; plugin 30)
+  int min_inliers = 20;            // trusted inliers that place a frame (Tracking.MinInliers)
   int after_blind = 3;             // x min_inliers, for the first frame back from the wheels alone (plugin 1)
   int overrule = 1;                // x the frame's bar, for vision alone to go on with a slip (plugin 2)
-  double slip_start = 2.0;         // x min_inliers, for vision alone to start a slip (Estimator.SlipMinInliers)
+  double slip_start = 2.0;         // x min_inliers, for vision alone to start a slip (Tracking.SlipMinInliers)
   bool check_slip = true;          // vision alone may overrule the wheels (Tracking.SlipCheck)
   bool judge_every_frame = false;  // judge the slip every frame, not only where worth checking (plugin true)
   bool bound_miss_after_slip =
       true;  // after a slip frame, vision alone misses the claim by at most a skid (plugin false)
   DriftTest drift = DriftTest::kNone;  // estimator: kStall for mono; plugin: kCreep
-  bool wheel_gate = true;  // the wheel gate (Estimator.WheelGate, Tracking.WheelGate; adaptive kernel, depth)
-  PlanarPoseOptions pose;  // the solves'
+  bool wheel_gate = true;              // the wheel gate (Tracking.WheelGate; adaptive kernel, depth)
+  PlanarPoseOptions pose;              // the solves'
 
-  // Each host's bars and tests where they still differ (docs/decisions/0011); the host then sets
-  // what its settings give (min_inliers, slip_start, check_slip, wheel_gate, pose).
+  // Each host's bars and tests where they still differ (docs/decisions/0011); apply() then sets
+  // what the settings give.
   static ArbiterOptions estimator(bool mono);  // RVWO's estimator: mono runs the stall test
-  static ArbiterOptions orbslam3();            // the ORB-SLAM3 plugin: ORB-SLAM3's 30 inliers
+  static ArbiterOptions orbslam3();            // the ORB-SLAM3 plugin
+  // min_inliers, slip_start, check_slip and pose's kernel scale and noise from the settings; the
+  // wheel gate stays off where the preset has it off.
+  ArbiterOptions& apply(const TrackingOptions& t);
 };
 
 // One frame as the host sees it.

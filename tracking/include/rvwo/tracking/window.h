@@ -72,8 +72,8 @@ struct WindowProblem {
 // One line an option: its unit and its settings key where a host reads it from one.
 struct WindowOptions {
   bool huber = false;            // Huber at the gate's root for every observation (--kernel huber)
-  double barron_scale = 2.0;     // Barron's c, in units of the gate's root (Estimator.BarronScale; docs/decisions/0008)
-  OutOfPlaneNoise out_of_plane;  // m, rad^2 (Estimator.SigmaZ, Estimator.SigmaRollPitch)
+  double barron_scale = 2.0;     // Barron's c, in units of the gate's root (Tracking.BarronScale; docs/decisions/0008)
+  OutOfPlaneNoise out_of_plane;  // m, rad^2 (Tracking.SigmaZ, Tracking.SigmaRollPitch)
   int min_views = 1;             // edges a point needs to be solved (mono: 2, for its depth)
   bool outliers_leave = true;    // observations beyond the gate leave the second round
   bool drop_slipping_wheel_edges = true;               // wheel edges that vision contradicts like a slip leave

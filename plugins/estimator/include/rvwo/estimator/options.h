@@ -11,6 +11,7 @@
 //   RGBD.DepthMapFactor [raw units per metre]             Camera.T_b_c, Odometry.T_b_o: 4x4 matrices
 //   Odometry.*, Reliability.*, Semantics.*                (rvwo/settings/settings.h)
 //   Estimator.*: the knobs of EstimatorOptions below, e.g. Estimator.Features: 1000
+//   Tracking.*: the tracking core's policy (TrackingOptions), e.g. Tracking.MinInliers: 20
 #pragma once
 
 #include <Eigen/Geometry>
@@ -80,32 +81,15 @@ struct EstimatorOptions {
   int fast_threshold = 12;
   // ---- tracking
   double search_radius = 12;        // px at level 0, projection search (Estimator.SearchRadius)
-  int min_inliers = 20;             // fewer: vision has failed this frame, the wheels carry the pose
   double max_depth_baselines = 40;  // close points (ORB-SLAM's ThDepth): new points closer than this many baselines
   // ---- mono: points triangulated between keyframes whose poses the wheels scale
   double mono_min_baseline =
       0.05;  // m between camera centres; less (a turn on the spot) triangulates nothing (Estimator.MonoMinBaseline)
   double mono_min_parallax = 1.0;  // degrees between the two rays of a new point (Estimator.MonoMinParallax)
-  // ---- slips (wheels spinning or skidding: vision alone overrules them, rvwo::decideSlip)
-  // A slip starts only with this many times min_inliers trusted landmarks behind vision alone
-  // (Estimator.SlipMinInliers; docs/decisions/0009).
-  double slip_min_inliers = 2.0;
-  // Blind frames this soon after a slip, in a blind stretch that began in it, hold the pose
-  // instead of following the wheels, s (Estimator.SlipHold; docs/decisions/0009).
-  double slip_hold = 2.0;
-  // ... if the slip lasted at least this many frames (Estimator.SlipHoldMinFrames): a real slip
-  // goes on, a frame or two of vision alone winning among walkers is no slip to hold on. Also
-  // what makes a spin whose wheel edge sits out local BA's first round (docs/decisions/0003).
-  int slip_hold_min_frames = 3;
-  // A landmark counts as static (trusted: it may place a frame and count in the slip test) while
-  // its probability of moving P_s stays below this (Estimator.TrustedMaxPs): one person label
-  // lifts P_s from the prior to 0.16.
-  double trusted_max_ps = 0.1;
-  // The wheel gate (Estimator.WheelGate: 1 | 0; adaptive kernel, stereo and RGB-D): where the
-  // fused pose strains the wheel edge and vision alone does not win (no slip), the pose is solved
-  // again from the wheels' prediction (rvwo::solveFromTheWheels). Walkers no label marks
-  // otherwise drag the fused pose a little every frame (docs/decisions/0002).
-  bool wheel_gate = true;
+  // ---- the tracking core's policy (Tracking.*: MinInliers, SlipMinInliers, SlipHold,
+  // SlipHoldMinFrames, TrustedMaxPs, SlipCheck, WheelGate, BarronScale, SigmaZ, SigmaRollPitch;
+  // rvwo/tracking/options.h, docs/estimator.md)
+  TrackingOptions tracking;
   // ---- keyframes and local mapping
   int keyframe_max_frames = 15;  // a keyframe at least this often (frames) while tracking
   double keyframe_ratio = 0.75;  // or when fewer than this share of the reference keyframe's points are tracked
@@ -117,12 +101,6 @@ struct EstimatorOptions {
   double mono_max_mapping_lag = 0.25;
   // ---- noise
   double sigma_px = 1.0;  // keypoint noise at level 0, px
-  OutOfPlaneNoise out_of_plane{0.01,
-                               Eigen::Matrix2d::Identity() * 1e-4};  // m, rad^2 (Estimator.SigmaZ, .SigmaRollPitch)
-  // Barron's scale c in whitened units, as a multiple of the chi2 gate's square root (Huber's
-  // delta is the root itself) (Estimator.BarronScale): at alpha = 1 an edge at the gate keeps
-  // weight 0.89, close to Huber's 1 (docs/decisions/0008).
-  double barron_scale = 2.0;
   WheelNoise wheel_noise;
   DiffDriveParams drive;
   // ---- the odometry's calibration c (rvwo/edges/wheel_preintegration.h), refined by local BA in
@@ -145,7 +123,7 @@ struct EstimatorOptions {
 // Camera.T_b_c, Odometry.T_b_o). Throws std::invalid_argument "<file>: missing key <key>" or
 // naming the key of a wrong value.
 Rig readRig(const Settings& settings);
-// Estimator.*, Odometry.*, Reliability.*, Semantics.* over the given defaults (mode, kernel and
+// Estimator.*, Tracking.*, Odometry.*, Reliability.*, Semantics.* over the given defaults (mode, kernel and
 // the switches stay as given: they are the caller's). Throws std::invalid_argument naming the key.
 EstimatorOptions readEstimatorOptions(const Settings& settings, EstimatorOptions defaults = {});
 

@@ -36,6 +36,8 @@
 #include <utility>
 #include <vector>
 
+#include "rvwo/tracking/options.h"
+
 namespace cv {
 class Mat;
 }
@@ -58,6 +60,13 @@ struct WheelReading {
   static WheelReading pose(double t, double x, double y, double theta) { return {t, kPose, x, y, theta}; }
 };
 
+// TrackingOptions with the plugin's defaults (docs/decisions/0011).
+inline TrackingOptions orbslam3Tracking() {
+  TrackingOptions t;
+  t.min_inliers = 30;
+  return t;
+}
+
 struct WheelInputParams {
   Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();  // the (left) camera in the body frame [Camera.T_b_c]
   Eigen::Isometry3d T_b_o = Eigen::Isometry3d::Identity();  // odometry frame in the body frame [Odometry.T_b_o]
@@ -73,20 +82,16 @@ struct WheelInputParams {
                                        // coarse keypoints and shortened its stereo map 0.15 %, and the
                                        // wheels' distance scale learnt that [ORBextractor.AlignedPyramid: 1 | 0]
   // ---- pose optimisation on SE(2) (stereo and RGB-D; mono keeps ORB-SLAM3's own)
-  bool planar = true;             // optimisePose answers [Tracking.Planar: 1 | 0]
-  bool huber = false;             // Huber (ORB-SLAM3's kernel) instead of the adaptive Barron kernel
-                                  // [Tracking.Kernel: adaptive | huber]
-  double barron_scale = 2.0;      // Barron's c, in units of the chi2 gate's root [Tracking.BarronScale]
-  double sigma_z = 0.01;          // m: the body's height off the plane [Tracking.SigmaZ]
-  double sigma_rollpitch = 0.01;  // rad: its roll and pitch [Tracking.SigmaRollPitch]
-  bool slip_check = true;         // vision alone may overrule wheels that slip [Tracking.SlipCheck: 1 | 0]
-  bool wheel_gate = true;         // where the fused pose strains the wheel edge and vision alone does not
-                                  // win, solved again from the wheels' prediction (solveFromTheWheels;
-                                  // adaptive kernel) [Tracking.WheelGate: 1 | 0]
-  bool local_map = true;          // optimiseLocalMap answers (with planar) [LocalMapping.Planar: 1 | 0]
-  bool calibrate = true;          // the local map refines the odometry's calibration (distance
-                                  // scale, turn scale, curvature), applied to every wheel edge
-                                  // [Odometry.Calibrate: 1 | 0]
+  bool planar = true;  // optimisePose answers [Tracking.Planar: 1 | 0]
+  bool huber = false;  // Huber (ORB-SLAM3's kernel) instead of the adaptive Barron kernel
+                       // [Tracking.Kernel: adaptive | huber]
+  // The tracking core's policy [Tracking.*: rvwo/tracking/options.h], with ORB-SLAM3's bar for a
+  // tracked frame (30 inliers) for vision to place one.
+  TrackingOptions tracking = orbslam3Tracking();
+  bool local_map = true;  // optimiseLocalMap answers (with planar) [LocalMapping.Planar: 1 | 0]
+  bool calibrate = true;  // the local map refines the odometry's calibration (distance
+                          // scale, turn scale, curvature), applied to every wheel edge
+                          // [Odometry.Calibrate: 1 | 0]
   Eigen::Vector3d calibration_sigma = Eigen::Vector3d(0.05, 0.05, 0.2);     // prior around 0 (1, 1, rad/m),
                                                                             // counted once, then a bound
   Eigen::Vector3d calibration_step = Eigen::Vector3d(0.003, 0.003, 0.005);  // around the last, per local map
@@ -108,7 +113,7 @@ struct WheelInputParams {
                                 // [LocalMapping.MaxWheelSpan]
   int spin_min_frames = 3;      // frames where vision saw the robot stand while the wheels went on that make
                                 // a spin: a wheel edge across one sits out the local map's first round
-                                // [LocalMapping.SpinMinFrames] (the estimator's Estimator.SlipHoldMinFrames)
+                                // [LocalMapping.SpinMinFrames] (the estimator's Tracking.SlipHoldMinFrames)
   // ---- a monocular map's first two keyframes against the wheels (monocularScale)
   double init_min_travel = 0.05;  // m: the wheels' travel between them below which vision's motion
                                   // is taken for a rotation alone [Initializer.MinTravel]

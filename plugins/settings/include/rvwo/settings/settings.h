@@ -10,9 +10,11 @@
 //   Semantics.LabelSet: "voc21" | "coco80" | "ade20k150"      (default voc21)
 //   Semantics.PriorsFile: "my_priors.txt"   lines "class: prior", relative to the settings file
 //   Semantics.Prior.<class>: <prior>         one class's prior, e.g. Semantics.Prior.chair: 0.6
+//   Tracking.*     TrackingOptions (rvwo/tracking/options.h), e.g. Tracking.MinInliers: 20
 #pragma once
 
 #include <Eigen/Geometry>
+#include <iosfwd>
 #include <memory>
 #include <optional>
 #include <string>
@@ -21,6 +23,7 @@
 #include "rvwo/edges/wheel_preintegration.h"
 #include "rvwo/kernels/reliability.h"
 #include "rvwo/kernels/semantic_priors.h"
+#include "rvwo/tracking/options.h"
 
 namespace rvwo {
 
@@ -65,5 +68,11 @@ SemanticPriors readSemanticPriors(const Settings& s);
 Eigen::Isometry3d readIsometry(const Settings& s, const std::string& key, bool required);
 // Odometry.WheelRadiusLeft, Odometry.WheelRadiusRight, Odometry.Track (m), validated.
 DiffDriveParams readDiffDrive(const Settings& s, DiffDriveParams defaults = {});
+// Tracking.* over the host's defaults, validated. A key the estimator used to read under another
+// name (Estimator.MinInliers, ...) is still read under it, with one line to *warnings (std::cerr
+// when null) once per file and key; both names given is std::invalid_argument naming them.
+TrackingOptions readTrackingOptions(const Settings& s, TrackingOptions defaults = {}, std::ostream* warnings = nullptr);
+// Every Tracking.* key, one a line, as readTrackingOptions reads them back.
+void writeTrackingOptions(std::ostream& out, const TrackingOptions& o);
 
 }  // namespace rvwo
