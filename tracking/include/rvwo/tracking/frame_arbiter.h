@@ -31,14 +31,13 @@ enum class DriftTest {
 // The bars and tests a host runs. Counts are of trusted inliers (landmarks no label has called
 // dynamic); docs/decisions/0011 gives both hosts' values where they differ.
 struct ArbiterOptions {
-  int min_inliers = 20;            // trusted inliers that place a frame (Tracking.MinInliers)
-  int after_blind = 3;             // x min_inliers, for the first frame back from the wheels alone (plugin 1)
-  int overrule = 1;                // x the frame's bar, for vision alone to go on with a slip (plugin 2)
-  double slip_start = 2.0;         // x min_inliers, for vision alone to start a slip (Tracking.SlipMinInliers)
-  bool check_slip = true;          // vision alone may overrule the wheels (Tracking.SlipCheck)
-  bool judge_every_frame = false;  // judge the slip every frame, not only where worth checking (plugin true)
-  bool bound_miss_after_slip =
-      true;  // after a slip frame, vision alone misses the claim by at most a skid (plugin false)
+  int min_inliers = 20;                // trusted inliers that place a frame (Tracking.MinInliers)
+  int after_blind = 3;                 // x min_inliers, for the first frame back from the wheels alone (plugin 1)
+  int overrule = 1;                    // x the frame's bar, for vision alone to go on with a slip (plugin 2)
+  double slip_start = 2.0;             // x min_inliers, for vision alone to start a slip (Tracking.SlipMinInliers)
+  bool check_slip = true;              // vision alone may overrule the wheels (Tracking.SlipCheck)
+  bool judge_every_frame = false;      // judge the slip every frame, not only where worth checking (plugin true)
+  bool bound_miss_after_slip = true;   // after a slip, vision alone misses the claim by a skid at most (plugin false)
   DriftTest drift = DriftTest::kNone;  // estimator: kStall for mono; plugin: kCreep
   bool wheel_gate = true;              // the wheel gate (Tracking.WheelGate; adaptive kernel, depth)
   PlanarPoseOptions pose;              // the solves'
