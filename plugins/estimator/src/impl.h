@@ -313,7 +313,7 @@ struct Estimator::Impl {
   // The frame's matches as the pose solver takes them, each with its landmark's kernel. (Map lock
   // held.)
   std::vector<PoseObservation> poseObservations(const Features& f, const std::vector<Match>& matches) const;
-  PlanarPoseOptions poseOptions() const { return arbiter.options().pose; }
+  const PlanarPoseOptions& poseOptions() const { return arbiter.options().pose; }
 
   // Pose-only optimisation on SE(2): iteratively reweighted Gauss-Newton with each landmark's
   // kernel, in rounds (ORB-SLAM's): after each, residuals beyond the chi2 gate are outliers for
