@@ -4,7 +4,10 @@
 // robot stands lose to vision within a frame or two and win again once they are right; walkers no
 // label marks are held off by the wheel gate; wheels that creep (stereo, the plugin's creep test)
 // or stall (mono, the estimator's stall test) lose within their stretch; a frame without matches
-// ends a slip; bad evidence is refused.
+// ends a slip; a blind stretch right after a slip holds the pose, one after vision saw the robot
+// drive on does not; a relocalisation is believed on enough agreement and on the wheels' way; walkers
+// covering most of the view, the rest agreeing away from the wheels, raise a doubt that lasts the
+// hold; bad evidence is refused.
 #include "rvwo/tracking/frame_arbiter.h"
 
 #include <gtest/gtest.h>
@@ -294,6 +297,152 @@ TEST(FrameArbiter, AFrameWithoutMatchesEndsASlip) {
   EXPECT_FALSE(d.slip || arbiter.slipping());
   EXPECT_EQ(d.x, blind.x_guess);
   EXPECT_FALSE(d.visual());
+}
+
+// The frame's evidence with the camera covered: no matches, the wheels going on.
+FrameEvidence coveredFrame(World* w, double t, const Eigen::Vector3d& x_prev, const SE2& claimed) {
+  FrameEvidence e = w->frame(t, x_prev, x_prev, t - 1.0 / kFps, claimed);
+  e.observations.clear();
+  e.trusted.clear();
+  return e;
+}
+
+// The estimator's hold: the robot stands from frame 10 while the wheels go on; the camera is
+// covered from frame `covered_from` for 90 frames (3 s). Returns, per covered frame, whether it
+// was held, and the last slip frame before the cover.
+std::vector<bool> holdsThroughTheCover(const ArbiterOptions& options, int stands_until, int covered_from,
+                                       int* last_slip) {
+  World w;
+  FrameArbiter arbiter(options);
+  const SE2 step(0.3 / kFps, 0.0, 0.2 / kFps);
+  Eigen::Vector3d x_true(0, 0, 0), x_prev = x_true;
+  std::vector<bool> held;
+  *last_slip = -1;
+  for (int k = 1; k < covered_from + 90; ++k) {
+    const double t = k / kFps;
+    if (!(k >= 10 && k < stands_until)) x_true = (SE2::fromVector(x_true) * step).vector();
+    if (k < covered_from) {
+      const FrameDecision d = arbiter.decide(w.frame(t, x_true, x_prev, t - 1.0 / kFps, step));
+      if (d.slip) *last_slip = k;
+      EXPECT_FALSE(arbiter.settle(d.visual()).held) << "frame " << k << ": vision placed it";
+      x_prev = d.x;
+    } else {
+      const FrameDecision d = arbiter.decide(coveredFrame(&w, t, x_prev, step));
+      held.push_back(arbiter.settle(d.visual()).held);
+    }
+  }
+  return held;
+}
+
+TEST(FrameArbiter, ABlindStretchThatStartsInASlipHoldsThePoseForTheHold) {
+  const ArbiterOptions options = estimatorOptions(false);
+  int last_slip = -1;
+  // Covered at frame 22, the spin's slip going on since frame 17 (the estimator's lag).
+  const std::vector<bool> held = holdsThroughTheCover(options, 40, 22, &last_slip);
+  ASSERT_EQ(last_slip, 21);
+  const int hold_frames = static_cast<int>(options.hold * kFps);  // 60: frames 22-81
+  for (int k = 0; k < static_cast<int>(held.size()); ++k) {
+    if (k < hold_frames - 1) EXPECT_TRUE(held[k]) << "covered frame " << k;
+    if (k > hold_frames + 1) EXPECT_FALSE(held[k]) << "covered frame " << k;
+  }
+  // Covered once vision has seen the robot drive on after the spin: the slip is over.
+  const std::vector<bool> later = holdsThroughTheCover(options, 25, 40, &last_slip);
+  ASSERT_GT(last_slip, 0);
+  ASSERT_LT(last_slip, 35);
+  for (std::size_t k = 0; k < later.size(); ++k) EXPECT_FALSE(later[k]) << "covered frame " << k;
+  // A slip shorter than hold_min_frames holds nothing.
+  ArbiterOptions long_slips_only = options;
+  long_slips_only.hold_min_frames = 10;
+  const std::vector<bool> none = holdsThroughTheCover(long_slips_only, 40, 22, &last_slip);
+  for (std::size_t k = 0; k < none.size(); ++k) EXPECT_FALSE(none[k]) << "covered frame " << k;
+}
+
+TEST(FrameArbiter, ARelocalisationIsBelievedOnEnoughAgreementAndOnTheWheelsWay) {
+  World w;
+  const ArbiterOptions options = estimatorOptions(false);
+  const int bar = options.min_inliers;
+  FrameArbiter arbiter(options);
+  const SE2 step(0.01, 0.0, 0.005);
+  int asked = 0;
+  const auto on_the_way = [&asked] {
+    ++asked;
+    return true;
+  };
+  const auto off_the_way = [&asked] {
+    ++asked;
+    return false;
+  };
+  Eigen::Vector3d x(1.0, 0.5, 0.3);
+  double t = 1.0;
+  const auto nextFrame = [&](const SE2& moved) {
+    arbiter.decide(coveredFrame(&w, t + 1.0 / kFps, x, step));
+    t += 1.0 / kFps;
+    x = (SE2::fromVector(x) * moved).vector();
+  };
+  nextFrame(step);
+  // Twice the bar: not alone; the next frame's, where the wheels allow, makes a run of four.
+  EXPECT_FALSE(arbiter.believeRelocalisation(x, 2 * bar, on_the_way));
+  nextFrame(step);
+  EXPECT_TRUE(arbiter.believeRelocalisation(x, 2 * bar, on_the_way));
+  // A jump of a metre the wheels did not claim starts the run again.
+  nextFrame(SE2(1.0, 0.0, 0.0));
+  EXPECT_FALSE(arbiter.believeRelocalisation(x, 2 * bar, on_the_way));
+  // Alone: kRelocaliseAlone x the bar, if on the wheels' way since vision's last frame.
+  nextFrame(step);
+  asked = 0;
+  EXPECT_TRUE(arbiter.believeRelocalisation(x, FrameArbiter::kRelocaliseAlone * bar, on_the_way));
+  EXPECT_EQ(asked, 1);
+  nextFrame(SE2(2.0, 0.0, 0.0));
+  EXPECT_FALSE(arbiter.believeRelocalisation(x, FrameArbiter::kRelocaliseAlone * bar, off_the_way));
+  // Anywhere with kRelocaliseAnywhere x, the wheels' way not asked.
+  nextFrame(SE2(2.0, 0.0, 0.0));
+  asked = 0;
+  EXPECT_TRUE(arbiter.believeRelocalisation(x, FrameArbiter::kRelocaliseAnywhere * bar, off_the_way));
+  EXPECT_EQ(asked, 0);
+  // Below the bar a relocalisation neither places the frame nor joins a run.
+  nextFrame(step);
+  EXPECT_FALSE(arbiter.believeRelocalisation(x, bar - 1, on_the_way));
+}
+
+// Walkers cover most of the view (their landmarks untrusted); the 25 static ones in view agree on
+// a pose 15 cm from the wheels', too few to start a slip or to place the frame. The wheels are
+// doubted from that frame on through the hold while the camera stays blind, and no longer once
+// vision places a frame.
+TEST(FrameArbiter, LandmarksThatContradictTheWheelsDoubtThemForTheHold) {
+  World w;
+  const ArbiterOptions options = estimatorOptions(false);
+  FrameArbiter arbiter(options);
+  const Eigen::Vector3d x_true(0, 0, 0);
+  const SE2 jump(0.15, 0.0, 0.0);
+  FrameEvidence e = w.frame(1.0, x_true, x_true, 1.0 - 1.0 / kFps, jump);
+  int kept = 0;
+  for (std::size_t k = 0; k < e.trusted.size(); ++k) {
+    e.trusted[k] = kept < 25;
+    e.observations[k].usable = kept < 25;
+    kept += e.trusted[k];
+  }
+  ASSERT_EQ(kept, 25);
+  const FrameDecision d = arbiter.decide(e);
+  EXPECT_FALSE(d.slip);
+  EXPECT_FALSE(d.visual());
+  EXPECT_TRUE(d.contradicts_wheels) << d.placed << " of " << d.candidates << ", alone " << d.vision_alone_placed;
+  EXPECT_TRUE(arbiter.settle(false).wheels_doubted);
+  const Eigen::Vector3d x_wheels = (SE2::fromVector(x_true) * jump).vector();
+  double t = 1.0;
+  for (int k = 1; k <= 90; ++k) {
+    t += 1.0 / kFps;
+    arbiter.decide(coveredFrame(&w, t, x_wheels, SE2()));
+    const bool doubted = arbiter.settle(false).wheels_doubted;
+    if (t - 1.0 < options.hold - 0.05) EXPECT_TRUE(doubted) << "blind frame " << k;
+    if (t - 1.0 > options.hold + 0.05) EXPECT_FALSE(doubted) << "blind frame " << k;
+  }
+  // Raised again, then a frame vision places ends it.
+  arbiter.decide(e);
+  EXPECT_TRUE(arbiter.settle(false).wheels_doubted);
+  arbiter.decide(w.frame(t + 1.0 / kFps, x_true, x_true, t, SE2()));
+  EXPECT_FALSE(arbiter.settle(true).wheels_doubted);
+  arbiter.decide(coveredFrame(&w, t + 2.0 / kFps, x_true, SE2()));
+  EXPECT_FALSE(arbiter.settle(false).wheels_doubted);
 }
 
 TEST(FrameArbiter, BadEvidenceAndOptionsAreRefused) {

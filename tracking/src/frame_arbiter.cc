@@ -44,6 +44,8 @@ ArbiterOptions& ArbiterOptions::apply(const TrackingOptions& t) {
   slip_start = t.slip_min_inliers;
   check_slip = t.slip_check;
   wheel_gate = wheel_gate && t.wheel_gate;
+  hold = t.slip_hold;
+  hold_min_frames = t.slip_hold_min_frames;
   pose.barron_scale = t.barron_scale;
   pose.out_of_plane = t.outOfPlane();
   return *this;
@@ -64,6 +66,7 @@ FrameDecision FrameArbiter::decide(const FrameEvidence& e) {
   d.to_place = (e.after_blind ? options_.after_blind : 1) * options_.min_inliers;
   const bool was_slipping = slipping_;
   slipping_ = false;  // until this frame says otherwise
+  frame_ = Frame{e.t, e.t_prev, e.wheels, was_slipping, false};
   std::optional<WheelEdge> edge;
   if (e.wheels) {
     try {
@@ -83,7 +86,44 @@ FrameDecision FrameArbiter::decide(const FrameEvidence& e) {
   if (edge && options_.check_slip) judgeSlip(e, *e.wheels, was_slipping, &d);
   if (edge && d.strained && !d.slip && !e.after_blind && options_.wheel_gate) gate(e, *edge, &d);
   d.placed = countTrusted(d.result.inlier, e.trusted);
+  d.contradicts_wheels = d.candidates >= options_.min_inliers / 2 && d.placed < 0.6 * d.candidates &&
+                         d.vision_alone_placed >= 0.6 * d.candidates;
+  frame_.contradicts_wheels = d.contradicts_wheels;
+  if (d.slip) {
+    // A hold goes on with the slip it held: vision back for a frame or two between blind stretches
+    // is the same slip, and the blindness after it holds again (docs/decisions/0003).
+    slip_run_ = (was_slipping || holding_) ? slip_run_ + 1 : 1;
+    last_slip_t_ = e.t;
+  }
   return d;
+}
+
+bool FrameArbiter::believeRelocalisation(const Eigen::Vector3d& x, int placed,
+                                         const std::function<bool()>& on_the_wheels_way) {
+  const int bar = options_.min_inliers;
+  int run = 0;
+  if (placed >= bar) {
+    const bool agrees = relocalised_.placed > 0 && relocalised_.t == frame_.t_prev && frame_.wheels &&
+                        onTheClaimedWay(*frame_.wheels, SE2::fromVector(relocalised_.x).inverse() * SE2::fromVector(x));
+    run = (agrees ? relocalised_.placed : 0) + placed;
+    relocalised_ = {frame_.t, x, run};
+  }
+  const bool enough = placed >= kRelocaliseAlone * bar || (run > placed && run >= kRelocaliseRun * bar);
+  return enough && (placed >= kRelocaliseAnywhere * bar || !on_the_wheels_way || on_the_wheels_way());
+}
+
+FrameOutcome FrameArbiter::settle(bool visual) {
+  FrameOutcome o;
+  o.held = !visual && !slipping_ && frame_.t - last_slip_t_ <= options_.hold && slip_run_ >= options_.hold_min_frames &&
+           (holding_ || frame_.was_slipping);
+  holding_ = o.held;
+  if (visual) {
+    doubted_t_ = -1e300;
+  } else if (frame_.contradicts_wheels) {
+    doubted_t_ = frame_.t;
+  }
+  o.wheels_doubted = !visual && frame_.t - doubted_t_ <= options_.hold;
+  return o;
 }
 
 FrameArbiter::VisionAlone FrameArbiter::solveVisionAlone(const FrameEvidence& e) const {

@@ -200,16 +200,7 @@ struct Estimator::Impl {
   SE2 velocity;        // T_{k-1}_{k}: constant-velocity model without wheels
   int frames_since_kf = 0;
   bool has_last = false, last_visual = true;
-  std::size_t slip_frames = 0;       // frames where vision overruled the wheels
-  double last_slip_t = -1e300;       // the last such frame's time
-  int slip_run = 0;                  // slip frames in a row, up to the last one
-  bool holding = false;              // the last frame held the pose after a slip
-  double wheels_doubted_t = -1e300;  // the last blind frame whose landmarks contradicted the wheels
-  struct RelocalisedRun {
-    double t = -1;      // its last frame
-    Eigen::Vector3d x;  // that frame's pose
-    int placed = 0;     // trusted inliers summed over the run
-  } relocalised_run;    // relocalisations of MinInliers or more in a row, each where the last allows
+  std::size_t slip_frames = 0;                 // frames where vision overruled the wheels
   std::atomic<std::size_t> wheel_outliers{0};  // wheel edges local BA found wrong
   std::mutex slip_mutex;
   struct SlipMark {
@@ -217,7 +208,8 @@ struct Estimator::Impl {
     bool spin;  // the robot about stood while the wheels went on (slipIsSpin)
   };
   std::deque<SlipMark> slip_marks;  // of those frames, since the oldest keyframe in memory
-  // The wheels against vision, frame by frame (the slip, the stall, the wheel gate): tracking's.
+  // The wheels against vision, frame by frame (the slip, the stall, the wheel gate, the hold, the
+  // relocalisation's belief): tracking's.
   FrameArbiter arbiter;
   static ArbiterOptions arbiterOptions(const Rig& r, const EstimatorOptions& o);
 
@@ -341,12 +333,9 @@ struct Estimator::Impl {
     std::vector<char> inlier, trusted;  // per match
     std::vector<double> errors;         // per match: whitened error
     int inliers = 0;
-    int candidates = 0;            // trusted matches
-    int to_place = 0;              // trusted inliers that place the frame
-    int vision_alone_placed = -1;  // trusted inliers of vision alone, when the slip check solved it
-    bool strained = false;         // vision strains the wheel edge from the last frame
-    bool was_slipping = false;
-    bool visual = false, after_slip = false, contradicts_wheels = false;
+    bool strained = false;  // vision strains the wheel edge from the last frame
+    bool visual = false;
+    bool after_slip = false, wheels_doubted = false;  // FrameOutcome's
     int countTrusted(const std::vector<char>& in) const { return rvwo::countTrusted(in, trusted); }
   };
 
@@ -366,23 +355,19 @@ struct Estimator::Impl {
   // The wheels against vision for this frame (rvwo::FrameArbiter): the pose solved with the wheel
   // edge, a slip (vision alone overrules them), a stall (mono), the wheel gate (docs/decisions/0002).
   FrameEvidence frameEvidence(const FrameWork& w);
-  // A slip frame: counted, its run, and marked for local BA (a spin's wheel edge sits out its first round).
-  void recordSlip(const FrameWork& w, bool spin);
+  // A slip frame: counted and marked for local BA (a spin's wheel edge sits out its first round).
+  void recordSlip(double t, bool spin);
 
   // Still blind after a stretch on the wheels: their prediction may be too far off for the
   // projection search, the map in memory may still be in view. Only trusted landmarks place the
   // frame (walkers' landmarks a label has seen, still inliers under their kernel, would pull the
-  // pose along). Believed off the wheels' way only on overwhelming agreement: fewer than 3 x
-  // MinInliers in a frame, but 4 x over a run of frames that agree where each frame's wheel motion
-  // allows (walkers covering most of the view leave 20-50 static landmarks, each frame's
-  // relocalisation another set of them). (Map lock held.)
+  // pose along); the arbiter says whether the result is believed. (Map lock held.)
   void relocaliseBlindFrame(FrameWork* w);
 
-  // Blind right after a slip, the wheels are the last to trust: the pose stays where vision left
-  // it (for at most Tracking.SlipHold), and its frames count as the spin they hold. Only a blind
-  // stretch that starts in the slip holds: once vision has seen the robot drive on, the slip is
-  // over (docs/decisions/0009).
-  void holdAfterSlip(FrameWork* w);
+  // Blind right after a slip, the wheels are the last to trust: the arbiter holds the pose where
+  // vision left it (for at most Tracking.SlipHold), and its frames count as the spin they hold
+  // (docs/decisions/0009). It also says whether the landmarks in view doubt the wheels.
+  void settleFrame(FrameWork* w);
 
   // The frame's pose (vision's, held, or the wheels'), its landmarks' reliabilities (eq. 6), and a
   // keyframe if one is due. Returns whether one was made. (Map lock held.)

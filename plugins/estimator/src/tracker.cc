@@ -186,12 +186,8 @@ void Estimator::Impl::processFrame(const FrameInput& in, std::future<FrontEnd> f
     return;
   }
   trackLocalMap(&w);
-  // Do this frame's own trusted landmarks say the wheels are wrong? Judged here, on the match
-  // set the slip check counted, before a relocalisation replaces it (see the blind keyframe).
-  w.contradicts_wheels = w.candidates >= opt.tracking.min_inliers / 2 &&
-                         w.countTrusted(w.inlier) < 0.6 * w.candidates && w.vision_alone_placed >= 0.6 * w.candidates;
   if (!w.visual && !last_visual) relocaliseBlindFrame(&w);
-  holdAfterSlip(&w);
+  settleFrame(&w);
   const bool make_kf = keepFrame(&w, &record);
   lock.unlock();
   if (make_kf) queueKeyFrame(w.t);
@@ -219,7 +215,6 @@ void Estimator::Impl::trackLocalMap(FrameWork* w) {
   }
   timings.add("match", msSince(t2));
   auto t3 = Clock::now();
-  w->was_slipping = arbiter.slipping();
   // Vision counts only landmarks no label has called dynamic (in the slip test and for a visual
   // frame): a walker close in front fills the view with its own landmarks.
   w->trusted = trustedOf(w->matches);
@@ -228,11 +223,8 @@ void Estimator::Impl::trackLocalMap(FrameWork* w) {
   w->inliers = d.result.inliers;
   w->inlier = std::move(d.result.inlier);
   w->errors = std::move(d.result.error);
-  w->candidates = d.candidates;
-  w->to_place = d.to_place;
   w->strained = d.strained;
-  w->vision_alone_placed = d.vision_alone_placed;
-  if (d.slip) recordSlip(*w, d.spin);
+  if (d.slip) recordSlip(w->t, d.spin);
   if (d.gated) ++counters.wheel_gated;
   timings.add("pose", msSince(t3));
   w->visual = d.visual();
@@ -263,15 +255,10 @@ ArbiterOptions Estimator::Impl::arbiterOptions(const Rig& r, const EstimatorOpti
   return a;
 }
 
-void Estimator::Impl::recordSlip(const FrameWork& w, bool spin) {
+void Estimator::Impl::recordSlip(double t, bool spin) {
   ++slip_frames;
-  last_slip_t = w.t;
-  // A hold goes on with the slip it held: vision back for a frame or two between blind
-  // stretches, a walker passing in front of the spinning robot, is the same slip, and the
-  // blindness after it holds again (docs/decisions/0003).
-  slip_run = (w.was_slipping || holding) ? slip_run + 1 : 1;
   std::lock_guard<std::mutex> slock(slip_mutex);
-  slip_marks.push_back({w.t, spin});
+  slip_marks.push_back({t, spin});
 }
 
 void Estimator::Impl::relocaliseBlindFrame(FrameWork* w) {
@@ -284,30 +271,21 @@ void Estimator::Impl::relocaliseBlindFrame(FrameWork* w) {
         w->matches.end());
     w->inliers = optimisePose(w->f, w->matches, std::nullopt, w->x, &w->x, &w->inlier, &w->errors);
     w->trusted = trustedOf(w->matches);
-    const int placed = w->countTrusted(w->inlier);
-    int run = 0;  // trusted inliers summed over the agreeing relocalisations ending here
-    if (placed >= opt.tracking.min_inliers) {
-      const bool agrees =
-          relocalised_run.placed > 0 && relocalised_run.t == last_t && w->delta &&
-          onTheClaimedWay(*w->delta, SE2::fromVector(relocalised_run.x).inverse() * SE2::fromVector(w->x));
-      run = (agrees ? relocalised_run.placed : 0) + placed;
-      relocalised_run = {w->t, w->x, run};
-    }
-    const bool enough = placed >= 3 * opt.tracking.min_inliers || (run > placed && run >= 4 * opt.tracking.min_inliers);
-    w->visual = enough && (placed >= 10 * opt.tracking.min_inliers || onTheWheelsWay(w->x, w->t));
+    w->visual =
+        arbiter.believeRelocalisation(w->x, w->countTrusted(w->inlier), [&] { return onTheWheelsWay(w->x, w->t); });
     if (w->visual) ++counters.relocalisations;
   }
   timings.add("relocalise", msSince(t5));
 }
 
-void Estimator::Impl::holdAfterSlip(FrameWork* w) {
-  w->after_slip = !w->visual && !arbiter.slipping() && w->t - last_slip_t <= opt.tracking.slip_hold &&
-                  slip_run >= opt.tracking.slip_hold_min_frames && (holding || w->was_slipping);
-  holding = w->after_slip;
-  if (!w->after_slip) return;
+void Estimator::Impl::settleFrame(FrameWork* w) {
+  const FrameOutcome o = arbiter.settle(w->visual);
+  w->after_slip = o.held;
+  w->wheels_doubted = o.wheels_doubted;
   // Held still while the wheels went on, as far as the map knows: a spin, whose wheel edge sits
   // out local BA's first round and comes back in the second only if vision's keyframes agree
   // with it (docs/decisions/0003).
+  if (!o.held) return;
   std::lock_guard<std::mutex> slock(slip_mutex);
   slip_marks.push_back({w->t, true});
 }
@@ -369,7 +347,6 @@ bool Estimator::Impl::keyFrameDue(const FrameWork& w, const SE2& T_w_b, const st
     (point_of[i] >= 0 ? close_tracked : close_untracked)++;
   }
   if (w.visual) {
-    wheels_doubted_t = -1e300;
     return frames_since_kf >= opt.keyframe_max_frames ||
            (frames_since_kf >= 2 && w.inliers < opt.keyframe_ratio * ref_kf.tracked) ||
            (!arbiter.slipping() && !w.strained && close_tracked < 100 && close_untracked > 70);
@@ -381,14 +358,10 @@ bool Estimator::Impl::keyFrameDue(const FrameWork& w, const SE2& T_w_b, const st
   }
   const int with_depth =
       static_cast<int>(std::count_if(w.f.depth.begin(), w.f.depth.end(), [](float d) { return d > 0; }));
-  // Not while the landmarks in view say the wheels are wrong: walkers covering most of the view
-  // leave too few for vision to place the frame, yet most of the static ones left agree on a pose
-  // of their own, away from the wheels', the way a slip makes them; a map restarted there is the
-  // slip's. The doubt holds until vision places a frame, or for Tracking.SlipHold after the last
-  // such frame (as the wheels run away from the map its landmarks leave the projection search).
-  if (w.contradicts_wheels) wheels_doubted_t = w.t;
-  const bool doubted = w.t - wheels_doubted_t <= opt.tracking.slip_hold;
-  return frames_since_kf >= 3 && with_depth >= 4 * opt.tracking.min_inliers && !w.after_slip && !doubted;
+  // Not while the landmarks in view say the wheels are wrong (FrameOutcome::wheels_doubted): a map
+  // restarted there is the slip's. As the wheels run away from the map its landmarks leave the
+  // projection search, so the doubt outlasts the frames that raised it by Tracking.SlipHold.
+  return frames_since_kf >= 3 && with_depth >= 4 * opt.tracking.min_inliers && !w.after_slip && !w.wheels_doubted;
 }
 
 bool Estimator::Impl::onTheWheelsWay(const Eigen::Vector3d& x, double t) {

@@ -4,7 +4,9 @@
 // ORB-SLAM3 plugin) give a frame's matches and wheel delta. decide() solves the pose with the wheel
 // edge (optimisePlanarPose), judges whether vision alone overrules the wheels (decideSlip, with the
 // creep or stall test over vision alone's own recent poses), else whether the pose goes back to the
-// wheels (solveFromTheWheels, the wheel gate), and keeps what the next frame's decision needs.
+// wheels (solveFromTheWheels, the wheel gate), and keeps what the next frame's decision needs. A
+// host that relocalises a blind frame asks believeRelocalisation(); one that holds the pose after
+// a slip and doubts the wheels for its keyframes ends each frame with settle().
 // docs/estimator.md lists the rules; docs/decisions/0011 the bars where the hosts still differ.
 #pragma once
 
@@ -40,14 +42,16 @@ struct ArbiterOptions {
   bool bound_miss_after_slip = true;   // after a slip, vision alone misses the claim by a skid at most (plugin false)
   DriftTest drift = DriftTest::kNone;  // estimator: kStall for mono; plugin: kCreep
   bool wheel_gate = true;              // the wheel gate (Tracking.WheelGate; adaptive kernel, depth)
+  double hold = 2.0;                   // s a blind frame after a slip holds the pose (Tracking.SlipHold)
+  int hold_min_frames = 3;             // slip frames in a row before a hold (Tracking.SlipHoldMinFrames)
   PlanarPoseOptions pose;              // the solves'
 
   // Each host's bars and tests where they still differ (docs/decisions/0011); apply() then sets
   // what the settings give.
   static ArbiterOptions estimator(bool mono);  // RVWO's estimator: mono runs the stall test
   static ArbiterOptions orbslam3();            // the ORB-SLAM3 plugin
-  // min_inliers, slip_start, check_slip and pose's kernel scale and noise from the settings; the
-  // wheel gate stays off where the preset has it off.
+  // min_inliers, slip_start, check_slip, the hold and pose's kernel scale and noise from the
+  // settings; the wheel gate stays off where the preset has it off.
   ArbiterOptions& apply(const TrackingOptions& t);
 };
 
@@ -79,7 +83,16 @@ struct FrameDecision {
   bool spin = false;                            // ... and the robot about stood (slipIsSpin)
   bool gated = false;                           // the wheel gate put the pose back on the wheels
   double slip_from = 0.0;                       // s: where the slip starts (a creep: its stretch's start)
+  // Most trusted landmarks agree on a pose of their own, away from the wheels' (as in a slip), yet
+  // too few to place the frame: walkers cover most of the view.
+  bool contradicts_wheels = false;
   bool visual() const { return placed >= to_place; }
+};
+
+// How a frame ends, once vision (decide, a relocalisation) has placed it or not.
+struct FrameOutcome {
+  bool held = false;            // blind right after a slip: the pose stays where vision left it
+  bool wheels_doubted = false;  // blind, and a frame's landmarks contradicted the wheels within the hold
 };
 
 class FrameArbiter {
@@ -91,6 +104,13 @@ class FrameArbiter {
   // A stall-tested slip that starts farther back than the wheels' claim (missBeyondTheClaim) needs
   // this many times min_inliers (docs/decisions/0009).
   static constexpr int kBeyondTheClaimStart = 5;
+  // A relocalisation of a frame after a blind one, in min_inliers: believed alone (kRelocaliseAlone),
+  // over a run of relocalisations that agree where each frame's wheel motion allows (kRelocaliseRun),
+  // or off the wheels' way since vision's last frame (kRelocaliseAnywhere). Walkers covering most of
+  // the view leave 20-50 static landmarks, each frame another set of them.
+  static constexpr int kRelocaliseAlone = 3;
+  static constexpr int kRelocaliseRun = 4;
+  static constexpr int kRelocaliseAnywhere = 10;
 
   explicit FrameArbiter(const ArbiterOptions& options = {});
   const ArbiterOptions& options() const { return options_; }
@@ -98,6 +118,16 @@ class FrameArbiter {
   // The frame's pose and the wheels-against-vision decision. A frame without observations ends a
   // slip (and the stall test's track); the pose is then x_guess.
   FrameDecision decide(const FrameEvidence& e);
+
+  // Whether the host's relocalisation of the frame decide() last saw (blind, after a blind one)
+  // places it: at x with `placed` trusted inliers. on_the_wheels_way (asked only when it matters)
+  // says whether x is where the wheels could have taken the robot since vision's last frame.
+  bool believeRelocalisation(const Eigen::Vector3d& x, int placed, const std::function<bool()>& on_the_wheels_way);
+
+  // The frame decide() last saw ends visual or not: held after a slip (blind within hold of a
+  // slip of hold_min_frames or more, the blind stretch starting in it), and whether its
+  // landmarks doubt the wheels (contradicts_wheels within hold, until vision places a frame).
+  FrameOutcome settle(bool visual);
 
   bool slipping() const { return slipping_; }  // the last decision was a slip
 
@@ -122,6 +152,22 @@ class FrameArbiter {
   bool slipping_ = false;
   std::deque<Seen> track_;  // vision alone's recent poses, for the drift test
   int stall_run_ = 0;       // stretches in a row the stall test found stalled
+
+  // The frame decide() last saw, for believeRelocalisation and settle.
+  struct Frame {
+    double t = 0.0, t_prev = 0.0;
+    std::optional<WheelDelta> wheels;
+    bool was_slipping = false, contradicts_wheels = false;
+  } frame_;
+  double last_slip_t_ = -1e300;  // s: the last slip frame
+  int slip_run_ = 0;             // slip frames in a row (a hold continues the run), up to the last one
+  bool holding_ = false;         // the last frame was held after a slip
+  double doubted_t_ = -1e300;    // s: the last blind frame whose landmarks contradicted the wheels
+  struct RelocalisedRun {
+    double t = -1e300;  // its last frame
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    int placed = 0;  // trusted inliers summed over the run
+  } relocalised_;
 };
 
 // Trusted inliers among the inliers.
