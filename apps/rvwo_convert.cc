@@ -287,6 +287,8 @@ void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
 
 int convert(ConvertArgs& args) {
   const fs::path in(args.in.getValue());
+  if (!(args.depth_factor.getValue() > 0) || !std::isfinite(args.depth_factor.getValue()))
+    throw std::invalid_argument("--depth-factor must be > 0 (depth image units per metre: 1000 for millimetres)");
   if (!fs::is_directory(in)) throw std::runtime_error(in.string() + ": folder not found");
   Conversion c(args.max_dt.getValue());
   if (args.kind.getValue() == "tum") {

@@ -87,6 +87,7 @@ void writePlot(const std::string& path, const rvwo::apps::AteResult& a, const st
 int evaluate(EvalArgs& args) {
   if (args.unit.getValue() != "f" && args.unit.getValue() != "m") throw std::invalid_argument("--delta-unit: f or m");
   if (!(args.max_dt.getValue() >= 0)) throw std::invalid_argument("--max-dt must be >= 0");
+  if (!(args.delta.getValue() > 0)) throw std::invalid_argument("--delta must be > 0");
   const auto mode = rvwo::apps::parseAlignment(args.align.getValue());
   const int block = args.first_block.getValue() ? 1 : 0;
   const auto ref = rvwo::apps::readTum(args.gt.getValue(), block);
@@ -100,6 +101,13 @@ int evaluate(EvalArgs& args) {
   const auto a = rvwo::apps::ate(ref, e, pairs, mode);
   const auto r = rvwo::apps::rpe(ref, e, pairs, args.delta.getValue(), metres, args.from_ref.getValue());
   const double path = rvwo::apps::pathLength(ref, pairs);
+  if (r.stats.n == 0) {
+    char what[160];
+    std::snprintf(what, sizeof what,
+                  "--delta %g %s spans no pair of poses (%zu poses paired over %.3f m): give a shorter one",
+                  args.delta.getValue(), metres ? "m" : "frames", pairs.size(), path);
+    throw std::invalid_argument(what);
+  }
 
   std::printf("rvwo-eval: %zu of %zu ground-truth poses paired with %zu estimated (max dt %.3f s), path %.3f m\n",
               pairs.size(), ref.size(), e.size(), args.max_dt.getValue(), path);

@@ -29,7 +29,10 @@
 // solved 7 to 15 in 90 s against 69 to 127 as recorded, and about one run in five drifted).
 // Bad records (odometry going backwards or NaN, an image of the wrong size or missing) are
 // skipped with a line on stderr; a truncated or corrupt rawlog stops the replay there: what was
-// estimated so far is written, and the exit status is 1.
+// estimated so far is written, and the exit status is 1. The settings, --gt, the sensors the
+// rawlog holds and the output paths are checked before the replay starts; SIGINT, SIGTERM or
+// SIGHUP stop it at the frame it is on, with what it has written (exit 130, 143, 129). Files are
+// written whole or not at all (support/output.h).
 #include <glog/logging.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -47,6 +50,8 @@
 
 #include "rvwo/estimator/estimator.h"
 #include "support/command_line.h"
+#include "support/interrupt.h"
+#include "support/output.h"
 #ifdef RVWO_WITH_ORBSLAM3
 #include "replay/orbslam3_backend.h"
 #endif
@@ -243,16 +248,29 @@ class ReplayApp {
     ReplayArgs args;
     if (const auto status = rvwo::apps::parseCommandLine(args.cmd, argc, argv)) return *status;
     req_.emplace(args);
+    rvwo::apps::installInterruptHandlers();  // a signal from here on stops the replay before or at its frame
     FLAGS_minloglevel = 2;
     configure();
+    checkPaths();
+    surveyRawlog();
     makeSegmenter();
     makeBackend();
     replay();
     finish();
+    if (const int signal = rvwo::apps::interruptSignal(); signal && frames_ == 0) {
+      std::fprintf(stderr, "rvwo-replay: interrupted (%s) before the first frame: nothing written\n",
+                   rvwo::apps::signalName(signal).c_str());
+      return rvwo::apps::interruptedStatus(signal);
+    }
     checkWhatWasRead();
     rvwo::apps::writeTum(req().out, est_);
     report();
     plot();
+    if (const int signal = rvwo::apps::interruptSignal()) {
+      std::fprintf(stderr, "rvwo-replay: interrupted (%s) at t = %.2f s: the %zu frames before it are written to %s\n",
+                   rvwo::apps::signalName(signal).c_str(), last_t_ - first_t_, rep_.frames, req().out.c_str());
+      return rvwo::apps::interruptedStatus(signal);
+    }
     if (!read_error_.empty()) {
       std::fprintf(stderr, "rvwo-replay: error: %s (the %zu frames before it are written to %s)\n", read_error_.c_str(),
                    rep_.frames, req().out.c_str());
@@ -308,6 +326,48 @@ class ReplayApp {
 #endif
   }
 
+  // The outputs (--out, the plot) are none of the inputs and can be written; --gt is read now.
+  void checkPaths() {
+    plot_path_ = req().plot.empty() ? fs::path(req().out).replace_extension(".png").string() : req().plot;
+    const std::string model = req().segmenter.rfind("onnx:", 0) == 0 ? req().segmenter.substr(5) : "";
+    rvwo::apps::checkOutputs(
+        {{"--out", req().out}, {req().plot.empty() ? "--plot (from --out)" : "--plot", plot_path_}},
+        {{"--settings", req().settings},
+         {"--rawlog", req().rawlog},
+         {"--gt", req().gt},
+         {"--segmenter", model},
+         {"--vocabulary", req().vocabulary}});
+    if (fs::weakly_canonical(req().out) == fs::weakly_canonical(plot_path_))
+      throw std::invalid_argument("--plot " + plot_path_ + " is the --out file: give the plot another path");
+    if (!req().gt.empty()) {
+      gt_ = rvwo::apps::readTum(req().gt);
+      alignment_ = rvwo::apps::parseAlignment(req().align);
+    }
+  }
+
+  // The sensors the replay needs are in the rawlog (read until they have been seen); else one line
+  // saying what the file has and which setting names the label.
+  void surveyRawlog() {
+    camera_label_ = settings_->text("Rawlog.CameraLabel")
+                        .value_or(rig_.sensor == rvwo::estimator::Sensor::kRgbd ? "RGBD" : "CAMERA");
+    odometry_label_ = settings_->text("Rawlog.OdometryLabel").value_or("ODOMETRY");
+    labels_label_ = settings_->text("Rawlog.LabelsLabel").value_or("LABELS");
+    const bool wheels = opt_.mode != rvwo::estimator::Mode::kVo;
+    std::vector<std::string> needed{camera_label_};
+    if (wheels) needed.push_back(odometry_label_);
+    const rvwo::apps::RawlogSurvey survey = rvwo::apps::surveyRawlog(req().rawlog, needed);
+    if (!survey.whole) return;  // all seen, or damaged before: the replay reports it where it comes
+    const std::string& rawlog = req().rawlog;
+    if (survey.records == 0) throw std::runtime_error(rawlog + ": no records (an empty rawlog)");
+    if (!survey.has(camera_label_))
+      throw std::runtime_error(rawlog + ": no camera frames (sensor label '" + camera_label_ + "'; the file has " +
+                               survey.describe() + "): set Rawlog.CameraLabel in " + req().settings);
+    if (wheels && !survey.has(odometry_label_))
+      throw std::runtime_error(rawlog + ": no odometry (sensor label '" + odometry_label_ + "'; the file has " +
+                               survey.describe() + "): set Rawlog.OdometryLabel in " + req().settings +
+                               ", or run --mode vo");
+  }
+
   void makeSegmenter() {
     const std::string& seg = req().segmenter;
     if (!opt_.semantics) {
@@ -331,10 +391,6 @@ class ReplayApp {
   }
 
   void makeBackend() {
-    camera_label_ = settings_->text("Rawlog.CameraLabel")
-                        .value_or(rig_.sensor == rvwo::estimator::Sensor::kRgbd ? "RGBD" : "CAMERA");
-    odometry_label_ = settings_->text("Rawlog.OdometryLabel").value_or("ODOMETRY");
-    labels_label_ = settings_->text("Rawlog.LabelsLabel").value_or("LABELS");
 #ifdef RVWO_WITH_ORBSLAM3
     if (use_orbslam3_)
       orbslam3_ = std::make_unique<rvwo::apps::OrbSlam3Backend>(rig_, opt_, vw(), *settings_, req().vocabulary,
@@ -435,6 +491,7 @@ class ReplayApp {
     t_start_ = std::chrono::steady_clock::now();
     Pacer pacer(realtime_, t_start_);
     while (auto e = reader.next()) {
+      if (rvwo::apps::interruptSignal()) break;  // stop at the frame it is on
       if (auto* l = std::get_if<rvwo::apps::LabelsRecord>(&*e)) {
         if (rawlog_labels_) rawlog_labels_->add(l->t, l->image);
         if (held_ && std::fabs(held_->timestamp - l->t) < 1e-6) flush();
@@ -452,6 +509,7 @@ class ReplayApp {
         if (opt_.mode == rvwo::estimator::Mode::kVo) continue;
         try {
           addOdometry(*o);
+          ++odometry_used_;
         } catch (const std::invalid_argument& ex) {
           skip("odometry at t = " + std::to_string(o->t) + ": " + ex.what());
         }
@@ -503,6 +561,9 @@ class ReplayApp {
     if (opt_.mode != rvwo::estimator::Mode::kVo && odometry_count_ == 0)
       throw std::runtime_error(rawlog + ": no odometry (sensor label '" + odometry_label_ +
                                "'): --mode vo runs without it");
+    if (opt_.mode != rvwo::estimator::Mode::kVo && odometry_used_ == 0)
+      throw std::runtime_error(rawlog + ": none of the " + std::to_string(odometry_count_) +
+                               " odometry records could be used (see the lines above): fix them, or run --mode vo");
     if (rawlog_labels_ && !rawlog_labels_->any() && req().segmenter == "rawlog")
       throw std::runtime_error(rawlog + ": no label images (sensor label '" + labels_label_ + "')");
     if (est_.empty()) throw std::runtime_error("ORB-SLAM3 kept no pose (its log: the --out file with .orbslam3.log)");
@@ -544,6 +605,8 @@ class ReplayApp {
     }
     reportDecisions();
     if (skipped_ > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped_);
+    if (opt_.mode != rvwo::estimator::Mode::kVo && odometry_used_ < odometry_count_)
+      std::printf("  odometry records used: %zu of %zu\n", odometry_used_, odometry_count_);
     // CPU as well as wall time: the wall time depends on what else the machine runs, the CPU says
     // how much of it a second of data takes (on two cores, 2x real time needs at most 1 s of CPU a
     // data second, and threads that keep both cores busy).
@@ -605,12 +668,10 @@ class ReplayApp {
   // The PNG: the trajectory from above (against the ground truth, aligned, when given) and the
   // error over time; with --gt, the ATE lines of the report first.
   void plot() const {
-    std::string plot_path = req().plot;
-    if (plot_path.empty()) plot_path = fs::path(req().out).replace_extension(".png").string();
     std::vector<Eigen::Vector2d> est_xy, gt_xy, wheel_xy, err_t;
     if (!req().gt.empty()) {
-      const rvwo::apps::Trajectory gt = rvwo::apps::readTum(req().gt);
-      const rvwo::apps::Alignment alignment = rvwo::apps::parseAlignment(req().align);
+      const rvwo::apps::Trajectory& gt = gt_;
+      const rvwo::apps::Alignment alignment = alignment_;
       std::vector<std::pair<std::size_t, std::size_t>> pairs;
       const auto a = reportAte(gt, alignment, "ATE (" + req().align + ")", est_, &pairs);
       const auto step = rvwo::apps::rpe(gt, est_, pairs, 1, false);
@@ -652,8 +713,8 @@ class ReplayApp {
       err_plot->add(err_t, mrpt::img::TColor(200, 40, 40), "ATE");
       panels.push_back(err_plot.get());
     }
-    rvwo::apps::savePanels(plot_path, panels);
-    std::printf("  plot: %s\n", plot_path.c_str());
+    rvwo::apps::savePanels(plot_path_, panels);
+    std::printf("  plot: %s\n", plot_path_.c_str());
   }
 
   std::optional<ReplayRequest> req_;
@@ -661,7 +722,9 @@ class ReplayApp {
   rvwo::estimator::Rig rig_;
   rvwo::estimator::EstimatorOptions opt_;
   double realtime_ = 0, ticks_per_rev_ = 0;
-  std::string odometry_input_, seg_name_ = "none", camera_label_, odometry_label_, labels_label_;
+  std::string odometry_input_, seg_name_ = "none", camera_label_, odometry_label_, labels_label_, plot_path_;
+  rvwo::apps::Trajectory gt_;  // --gt, read before the replay
+  rvwo::apps::Alignment alignment_ = rvwo::apps::Alignment::kSE3;
   bool use_orbslam3_ = false, tty_ = false;
   std::shared_ptr<rvwo::Segmenter> segmenter_;
   std::shared_ptr<rvwo::apps::RawlogLabels> rawlog_labels_;
@@ -673,7 +736,7 @@ class ReplayApp {
   std::chrono::steady_clock::time_point t_start_ = std::chrono::steady_clock::now();
   double first_t_ = NAN, last_t_ = NAN, last_progress_ = -1, wall_ = 0;
   double q_left0_ = NAN, q_right0_ = NAN;  // the first encoder ticks: wheel angles count from them
-  std::size_t frames_ = 0, odometry_count_ = 0, skipped_ = 0, records_ = 0;
+  std::size_t frames_ = 0, odometry_count_ = 0, odometry_used_ = 0, skipped_ = 0, records_ = 0;
   std::string first_skip_, read_error_;
   std::optional<FrameInput> held_;
   // What it produced.

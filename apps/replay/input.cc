@@ -6,6 +6,7 @@
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CObservationStereoImages.h>
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
@@ -44,6 +45,50 @@ Segmentation RawlogLabels::segment(const cv::Mat&, const FrameInfo& info) {
 std::pair<std::size_t, std::string> RawlogLabels::failures() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return {failures_, first_failure_};
+}
+
+bool RawlogSurvey::has(const std::string& label) const {
+  for (const Sensor& s : sensors) {
+    if (s.label == label) return true;
+  }
+  return false;
+}
+
+std::string RawlogSurvey::describe() const {
+  std::string out;
+  for (const Sensor& s : sensors)
+    out += (out.empty() ? "" : ", ") + s.label + ": " + s.type + " x " + std::to_string(s.count);
+  return out.empty() ? "nothing" : out;
+}
+
+RawlogSurvey surveyRawlog(const std::string& path, const std::vector<std::string>& labels) {
+  RawlogSurvey survey;
+  RawlogReader reader(path);
+  const auto allSeen = [&] {
+    for (const std::string& l : labels) {
+      if (!survey.has(l)) return false;
+    }
+    return true;
+  };
+  try {
+    while (!allSeen()) {
+      const std::optional<mrpt::obs::CObservation::Ptr> obs = reader.next();
+      if (!obs) {
+        survey.whole = true;
+        break;
+      }
+      ++survey.records;
+      std::string type = (*obs)->GetRuntimeClass()->className;
+      if (type.rfind("mrpt::obs::", 0) == 0) type = type.substr(11);
+      auto it = std::find_if(survey.sensors.begin(), survey.sensors.end(), [&](const RawlogSurvey::Sensor& s) {
+        return s.label == (*obs)->sensorLabel && s.type == type;
+      });
+      if (it == survey.sensors.end()) it = survey.sensors.insert(it, {(*obs)->sensorLabel, type, 0});
+      ++it->count;
+    }
+  } catch (const RawlogError&) {
+  }
+  return survey;
 }
 
 Prefetcher::Prefetcher(const std::string& path, std::string camera_label, std::string odometry_label,

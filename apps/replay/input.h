@@ -65,6 +65,23 @@ struct SkippedRecord {
 };
 using ReplayEvent = std::variant<estimator::FrameInput, OdometryRecord, LabelsRecord, SkippedRecord>;
 
+// What a rawlog holds, read before the replay: its records until every sensor label asked for has
+// been seen (the whole file when one is missing), by label and class.
+struct RawlogSurvey {
+  struct Sensor {
+    std::string label, type;
+    std::size_t count = 0;
+  };
+  std::vector<Sensor> sensors;  // in order of first appearance
+  std::size_t records = 0;      // read
+  bool whole = false;           // the whole file was read without an error
+  bool has(const std::string& label) const;
+  // "CAMERA: CObservationStereoImages x 90, ODOMETRY: CObservationOdometry x 300" (or "nothing").
+  std::string describe() const;
+};
+// Stops early at a damaged record (the replay reports it where it comes).
+RawlogSurvey surveyRawlog(const std::string& path, const std::vector<std::string>& labels);
+
 // Reads and decodes ahead of the estimator in a thread of its own (bounded: a few frames).
 class Prefetcher {
  public:

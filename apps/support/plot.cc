@@ -7,6 +7,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "support/output.h"
+
 namespace rvwo::apps {
 namespace {
 
@@ -106,7 +108,9 @@ void Plot::save(const std::string& path, int w, int h) const { savePanels(path, 
 void savePanels(const std::string& path, const std::vector<const Plot*>& panels, int w, int panel_h) {
   mrpt::img::CImage img(w, panel_h * static_cast<int>(panels.size()), mrpt::img::CH_RGB);
   for (std::size_t i = 0; i < panels.size(); ++i) panels[i]->draw(img, 0, static_cast<int>(i) * panel_h, w, panel_h);
-  if (!img.saveToFile(path)) throw std::runtime_error("cannot write '" + path + "'");
+  writeWhole(path, [&](const std::string& tmp) {
+    if (!img.saveToFile(tmp)) throw std::runtime_error("cannot write '" + path + "'");
+  });
 }
 
 }  // namespace rvwo::apps

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "support/output.h"
+
 namespace rvwo::apps {
 
 Trajectory readTum(const std::string& path, int block, bool lenient) {
@@ -65,16 +67,19 @@ Trajectory readTum(const std::string& path, int block, bool lenient) {
 }
 
 void writeTum(const std::string& path, const Trajectory& trajectory) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error(path + ": cannot be written");
-  out << "# t x y z qx qy qz qw\n" << std::setprecision(17);
-  for (const StampedPose& p : trajectory) {
-    const Eigen::Quaterniond q(p.T.linear());
-    const Eigen::Vector3d& x = p.T.translation();
-    out << p.t << ' ' << x.x() << ' ' << x.y() << ' ' << x.z() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << ' '
-        << q.w() << '\n';
-  }
-  if (!out) throw std::runtime_error(path + ": write failed");
+  writeWhole(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp);
+    if (!out) throw std::runtime_error(path + ": cannot be written");
+    out << "# t x y z qx qy qz qw\n" << std::setprecision(17);
+    for (const StampedPose& p : trajectory) {
+      const Eigen::Quaterniond q(p.T.linear());
+      const Eigen::Vector3d& x = p.T.translation();
+      out << p.t << ' ' << x.x() << ' ' << x.y() << ' ' << x.z() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << ' '
+          << q.w() << '\n';
+    }
+    out.close();
+    if (!out) throw std::runtime_error(path + ": write failed");
+  });
 }
 
 std::vector<std::pair<std::size_t, std::size_t>> associate(const Trajectory& ref, const Trajectory& est,

@@ -32,7 +32,8 @@ using Trajectory = std::vector<StampedPose>;
 // lenient: rows whose timestamp does not increase (real recordings repeat some) are skipped
 // instead of being an error.
 Trajectory readTum(const std::string& path, int block = 0, bool lenient = false);
-// Writes it (full precision); throws std::runtime_error when the file cannot be written.
+// Writes it (full precision), whole or not at all (writeWhole); throws std::runtime_error when
+// the file cannot be written.
 void writeTum(const std::string& path, const Trajectory& trajectory);
 
 // Nearest-timestamp pairs (ref index, est index) within max_dt seconds, each est used once,

@@ -174,6 +174,15 @@ TEST(Convert, MalformedFoldersNameFileAndLine) {
   std::ofstream(d / "odometry.csv") << "t,x,y,theta\n1,0,nan,0\n";
   EXPECT_NE(convert("generic --in " + d.string() + " --out " + out, &err), 0);
   EXPECT_NE(err.find("odometry.csv:2: expected 't,x,y,theta' (numbers)"), std::string::npos) << err;
+  // A depth factor that would make every depth zero or negative.
+  for (const char* f : {"0", "-1000"}) {
+    EXPECT_NE(convert("generic --in " + d.string() + " --depth-factor " + f + " --out " + out, &err), 0) << f;
+    EXPECT_EQ(err,
+              "rvwo-convert: error: --depth-factor must be > 0 (depth image units per metre: 1000 for "
+              "millimetres)\n")
+        << f;
+  }
+  EXPECT_FALSE(fs::exists(out));
   EXPECT_NE(convert("openloris --in " + (d / "missing").string() + " --out " + out, &err), 0);
   EXPECT_EQ(err, "rvwo-convert: error: " + (d / "missing").string() + ": folder not found\n");
 }

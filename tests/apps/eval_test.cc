@@ -4,6 +4,7 @@
 // parsing errors with file and line, and the rvwo-eval program end to end with its JSON.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -192,6 +193,25 @@ TEST(Eval, ProgramEndToEndWithJson) {
     EXPECT_NE(json.str().find(key), std::string::npos) << key << " in " << json.str();
   }
   EXPECT_GT(fs::file_size(dir / "p.png"), 10000u);
+  // A delta longer than the run: an error, not an RPE of 0 over no pairs (nor a JSON written).
+  for (const auto& [delta, line] : std::vector<std::pair<std::string, std::string>>{
+           {"--delta 500", "rvwo-eval: error: --delta 500 frames spans no pair of poses (200 poses paired over "},
+           {"--delta 1000 --delta-unit m",
+            "rvwo-eval: error: --delta 1000 m spans no pair of poses (200 poses paired over "},
+           {"--delta 0", "rvwo-eval: error: --delta must be > 0\n"}}) {
+    fs::remove(dir / "r2.json");
+    const std::string long_delta = std::string(RVWO_EVAL) + " --gt " + (dir / "gt.txt").string() + " --est " +
+                                   (dir / "est.txt").string() + " " + delta + " --json " + (dir / "r2.json").string() +
+                                   " > /dev/null 2> " + (dir / "err2.txt").string();
+    const int rc = std::system(long_delta.c_str());
+    EXPECT_EQ(WEXITSTATUS(rc), 1) << delta;
+    std::stringstream err2;
+    err2 << std::ifstream(dir / "err2.txt").rdbuf();
+    const std::string e2 = err2.str();
+    EXPECT_EQ(e2.rfind(line, 0), 0u) << e2;
+    EXPECT_EQ(std::count(e2.begin(), e2.end(), '\n'), 1) << e2;
+    EXPECT_FALSE(fs::exists(dir / "r2.json")) << delta;
+  }
   // Bad input: one line on stderr, exit status 1, no crash.
   const std::string bad = std::string(RVWO_EVAL) + " --gt " + (dir / "missing.txt").string() + " --est " +
                           (dir / "est.txt").string() + " 2> " + (dir / "err.txt").string();

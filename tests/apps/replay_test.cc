@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <mrpt/obs/CObservationOdometry.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -492,6 +493,153 @@ TEST(Replay, RealtimePacesTheRecordsAndRefusesWhatMeansNothing) {
             "on time): give one of the two\n"}}) {
     EXPECT_NE(std::system((base + " " + args + " 2> " + (dir / "e.txt").string()).c_str()), 0) << args;
     EXPECT_EQ(slurp(dir / "e.txt"), line) << args;
+  }
+  fs::remove_all(dir);
+}
+
+// Runs rvwo-replay on dir's sequence with dir's settings file `settings` and `args`; returns the
+// exit status, stdout and stderr in out and err (--rawlog: dir's sequence unless args give one).
+// prefix goes before the command (a timeout).
+int replayRaw(const fs::path& dir, const std::string& settings, const std::string& args, std::string* out,
+              std::string* err, const std::string& prefix = "") {
+  const std::string rawlog =
+      args.find("--rawlog") == std::string::npos ? " --rawlog " + (dir / "sequence.rawlog").string() : "";
+  const std::string cmd = prefix + std::string(RVWO_REPLAY) + " --quiet --settings " + (dir / settings).string() +
+                          rawlog + " " + args + " > " + (dir / "raw.stdout").string() + " 2> " +
+                          (dir / "raw.stderr").string();
+  const int rc = std::system(cmd.c_str());
+  *out = slurp(dir / "raw.stdout");
+  *err = slurp(dir / "raw.stderr");
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+// An output that is an input (by its path, a symbolic link or a hard link), in a folder that is
+// not there, or a folder itself, and a --gt that cannot be read: one line before any work (nothing
+// on stdout), no input changed, nothing written.
+TEST(Replay, OutputsAreCheckedBeforeTheReplayAndAreNeverAnInput) {
+  const fs::path dir = simulate("static", 2);
+  const std::string rawlog = (dir / "sequence.rawlog").string(), settings = (dir / "settings.yaml").string(),
+                    gt = (dir / "groundtruth.txt").string();
+  const std::string rawlog_bytes = slurp(rawlog), settings_bytes = slurp(settings), gt_bytes = slurp(gt);
+  fs::create_symlink(dir / "settings.yaml", dir / "link.yaml");
+  fs::create_hard_link(dir / "groundtruth.txt", dir / "hard.txt");
+  const std::string e = "rvwo-replay: error: ";
+  for (const auto& [args, line] : std::vector<std::pair<std::string, std::string>>{
+           {"--out " + rawlog, e + "--out " + rawlog + " is the --rawlog input: give the output another path\n"},
+           {"--out " + settings, e + "--out " + settings + " is the --settings input: give the output another path\n"},
+           {"--out " + (dir / "link.yaml").string(),
+            e + "--out " + (dir / "link.yaml").string() + " is the --settings input: give the output another path\n"},
+           {"--out " + (dir / "t.txt").string() + " --gt " + gt + " --plot " + (dir / "hard.txt").string(),
+            e + "--plot " + (dir / "hard.txt").string() + " is the --gt input: give the output another path\n"},
+           {"--out " + (dir / "t.txt").string() + " --plot " + (dir / "t.txt").string(),
+            e + "--plot " + (dir / "t.txt").string() + " is the --out file: give the plot another path\n"},
+           {"--out " + (dir / "no" / "t.txt").string(), e + "--out " + (dir / "no" / "t.txt").string() +
+                                                            ": no folder " + (dir / "no").string() +
+                                                            " (make it, or give another path)\n"},
+           {"--out " + (dir / "sequence_Images").string(),
+            e + "--out " + (dir / "sequence_Images").string() + " is a folder: give a file name\n"},
+           {"--out " + (dir / "t.txt").string() + " --gt " + (dir / "none.txt").string(),
+            e + (dir / "none.txt").string() + ": cannot be read\n"}}) {
+    std::string out, err;
+    EXPECT_EQ(replayRaw(dir, "settings.yaml", "--deterministic " + args, &out, &err), 1) << args;
+    EXPECT_EQ(err, line) << args;
+    EXPECT_EQ(out, "") << args;
+  }
+  EXPECT_EQ(slurp(rawlog), rawlog_bytes);
+  EXPECT_EQ(slurp(settings), settings_bytes);
+  EXPECT_EQ(slurp(gt), gt_bytes);
+  EXPECT_FALSE(fs::exists(dir / "t.txt"));
+  EXPECT_FALSE(fs::exists(dir / "t.png"));
+  fs::remove_all(dir);
+}
+
+// A camera or odometry label the rawlog does not have: one line before any work, listing what the
+// file has and naming the setting; --mode vo needs no odometry.
+TEST(Replay, MissingSensorsAreNamedWithWhatTheFileHas) {
+  const fs::path dir = simulate("static", 2);
+  const std::string settings = slurp(dir / "settings.yaml");
+  std::ofstream(dir / "nocam.yaml") << settings << "Rawlog.CameraLabel: \"FRONT\"\n";
+  std::ofstream(dir / "noodo.yaml") << settings << "Rawlog.OdometryLabel: \"WHEELS\"\n";
+  const std::string has = "the file has ODOMETRY: CObservationOdometry x ";
+  const std::string out_arg = " --deterministic --out " + (dir / "t.txt").string();
+  std::string out, err;
+  EXPECT_EQ(replayRaw(dir, "nocam.yaml", out_arg, &out, &err), 1);
+  EXPECT_EQ(out, "");
+  EXPECT_EQ(err.rfind("rvwo-replay: error: " + (dir / "sequence.rawlog").string() +
+                          ": no camera frames (sensor label 'FRONT'; " + has,
+                      0),
+            0u)
+      << err;
+  EXPECT_NE(err.find("CAMERA: CObservationStereoImages x 6"), std::string::npos) << err;  // 2 s at 30 Hz
+  EXPECT_NE(err.find("): set Rawlog.CameraLabel in " + (dir / "nocam.yaml").string() + "\n"), std::string::npos) << err;
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  EXPECT_EQ(replayRaw(dir, "noodo.yaml", out_arg, &out, &err), 1);
+  EXPECT_EQ(out, "");
+  EXPECT_NE(err.find(": no odometry (sensor label 'WHEELS'; " + has), std::string::npos) << err;
+  EXPECT_NE(err.find("): set Rawlog.OdometryLabel in " + (dir / "noodo.yaml").string() + ", or run --mode vo\n"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(replayRaw(dir, "noodo.yaml", out_arg + " --mode vo", &out, &err), 0) << err;
+  EXPECT_EQ(lines(dir / "t.txt"), lines(dir / "groundtruth.txt"));
+  fs::remove_all(dir);
+}
+
+// --mode vw with odometry none of which can be used (encoder ticks asked of a rawlog whose
+// readings carry none) is an error, not a vision-only run.
+TEST(Replay, VwWithoutUsableOdometryIsAnError) {
+  const fs::path dir = simulate("static", 2);
+  {
+    RawlogReader in((dir / "sequence.rawlog").string());
+    RawlogWriter out((dir / "noticks.rawlog").string());
+    while (auto o = in.next()) {
+      if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(*o)) od->hasEncodersInfo = false;
+      out.write(**o);
+    }
+  }
+  fs::create_directory_symlink(dir / "sequence_Images", dir / "noticks_Images");
+  const std::string rawlog = (dir / "noticks.rawlog").string();
+  std::string out, err;
+  const int rc = replayRaw(dir, "settings.yaml",
+                           "--deterministic --rawlog " + rawlog + " --out " + (dir / "t.txt").string(), &out, &err);
+  EXPECT_EQ(rc, 1);
+  const std::string last = err.substr(err.rfind('\n', err.size() - 2) + 1);
+  EXPECT_EQ(last.rfind("rvwo-replay: error: " + rawlog + ": none of the ", 0), 0u) << err;
+  EXPECT_NE(last.find(" odometry records could be used (see the lines above): fix them, or run --mode vo\n"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("no encoder ticks (Odometry.Input is encoders)"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "t.txt"));
+  fs::remove_all(dir);
+}
+
+// SIGINT, SIGTERM or SIGHUP stop the replay at the frame it is on: the trajectory and the report
+// of what it has are written (a stale file at --out replaced), one line says so, and the exit
+// status is 128 + the signal's number. No partial file is left.
+TEST(Replay, InterruptedWritesWhatItHasAndExitsWithTheSignal) {
+  const fs::path dir = simulate("static", 8);
+  const std::size_t all = lines(dir / "groundtruth.txt");
+  for (const auto& [name, status] :
+       std::vector<std::pair<std::string, int>>{{"INT", 130}, {"TERM", 143}, {"HUP", 129}}) {
+    std::ofstream(dir / "t.txt") << "stale\n";
+    std::string out, err;
+    // As recorded (8 s), stopped after 5 s.
+    const int rc = replayRaw(dir, "settings.yaml", "--realtime 1 --out " + (dir / "t.txt").string(), &out, &err,
+                             "timeout --preserve-status -s " + name + " 5 ");
+    EXPECT_EQ(rc, status) << name << ": " << err;
+    const std::string line = "rvwo-replay: interrupted (SIG" + name + ") at t = ";
+    EXPECT_EQ(err.rfind(line, 0), 0u) << err;
+    EXPECT_NE(err.find(" frames before it are written to " + (dir / "t.txt").string() + "\n"), std::string::npos)
+        << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    const Trajectory t = readTum((dir / "t.txt").string());
+    EXPECT_GT(t.size(), 10u) << name;
+    EXPECT_LT(t.size(), all) << name;
+    std::size_t frames = 0;
+    ASSERT_EQ(std::sscanf(err.c_str() + err.find(" s: the ") + 8, "%zu", &frames), 1) << err;
+    EXPECT_EQ(frames, t.size()) << name;
+    EXPECT_NE(out.find("  trajectory: " + (dir / "t.txt").string()), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / ".t.partial.txt"));
+    EXPECT_FALSE(fs::exists(dir / ".t.partial.png"));
   }
   fs::remove_all(dir);
 }

@@ -54,7 +54,37 @@ TEST(Settings, ErrorsNameTheFileAndTheKey) {
               "settings file not found");
   const fs::path bad = rvwo::test::scratch("rvwo_bad_settings.yaml");
   std::ofstream(bad) << "this: [is not closed\n";
-  expectError([&] { Settings::load(bad.string()); }, bad.string() + ": ");
+  expectError([&] { Settings::load(bad.string()); },
+              bad.string() + ": not a settings YAML file (its first line must be %YAML:1.0)");
+  fs::remove(bad);
+}
+
+// A YAML syntax error names its line; a key given twice (an override appended at the end, which
+// the reader would have ignored) is an error naming both lines, whatever the file or text.
+TEST(Settings, SyntaxErrorsAndKeysGivenTwiceNameTheirLines) {
+  const fs::path bad = rvwo::test::scratch("rvwo_syntax.yaml");
+  const auto errorOf = [&](const std::string& text) {
+    std::ofstream(bad) << text;
+    try {
+      Settings::load(bad.string());
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("loaded");
+  };
+  EXPECT_EQ(errorOf("%YAML:1.0\nA: 1\nB 2\nC: 3\n"), bad.string() + ": line 3: Missing ':'");
+  EXPECT_EQ(errorOf("%YAML:1.0\nA: 1\n  B: 2\n"), bad.string() + ": line 3: Incorrect indentation");
+  EXPECT_EQ(errorOf("%YAML:1.0\nCamera1.fx: 400\nM: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [1]\n"
+                    "# Camera1.fx: 1\nCamera1.fx: 500\n"),
+            bad.string() + ": Camera1.fx is given twice (lines 2 and 9): keep one");
+  EXPECT_EQ(errorOf("%YAML:1.0\nA: 1\n\"A\": 2\n"), bad.string() + ": A is given twice (lines 2 and 3): keep one");
+  // Fields of two matrices and keys under different sections are not top-level keys.
+  EXPECT_EQ(errorOf("%YAML:1.0\nM: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [1]\n"
+                    "N: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [2]\n"),
+            "loaded");
+  expectError([] { Settings::fromString("%YAML:1.0\nA: 1\nA: 2\n", "t.yaml"); },
+              "t.yaml: A is given twice (lines 2 and 3): keep one");
+  fs::remove(bad);
 }
 
 TEST(Settings, SemanticPriorsFromYamlAndAUserFile) {

@@ -1,14 +1,17 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 #include "rvwo/settings/settings.h"
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <opencv2/core.hpp>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 
 namespace rvwo {
@@ -22,18 +25,62 @@ Settings::~Settings() = default;
 Settings::Settings(Settings&&) noexcept = default;
 Settings& Settings::operator=(Settings&&) noexcept = default;
 
+namespace {
+
+// OpenCV's YAML parse error as "line N: what" (its message reads "... in function
+// '<name>(N): what'"); its bare text when it has no line.
+std::string parseError(const cv::Exception& e) {
+  const std::string& m = e.msg;
+  const std::size_t open = m.rfind("): "), paren = open == std::string::npos ? open : m.rfind('(', open);
+  if (paren == std::string::npos) return e.err;
+  std::string what = m.substr(open + 3);
+  while (!what.empty() && what.back() == '\n') what.pop_back();
+  if (!what.empty() && what.back() == '\'') what.pop_back();  // the quote that closes "in function '...'"
+  return "line " + m.substr(paren + 1, open - paren - 1) + ": " + what;
+}
+
+// A top-level key given twice is an error naming both lines (the reader would take one silently).
+void checkDuplicateKeys(const std::string& name, const std::string& text) {
+  std::map<std::string, int> first_line;
+  std::istringstream in(text);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (line.empty() || std::isspace(static_cast<unsigned char>(line[0])) || line[0] == '#' || line[0] == '%' ||
+        line[0] == '-')
+      continue;
+    const std::size_t colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    std::string key = line.substr(0, colon);
+    while (!key.empty() && std::isspace(static_cast<unsigned char>(key.back()))) key.pop_back();
+    if (key.size() > 1 && (key.front() == '"' || key.front() == '\'')) key = key.substr(1, key.size() - 2);
+    const auto [it, fresh] = first_line.emplace(key, n);
+    if (!fresh)
+      throw std::runtime_error(name + ": " + key + " is given twice (lines " + std::to_string(it->second) + " and " +
+                               std::to_string(n) + "): keep one");
+  }
+}
+
+}  // namespace
+
 Settings Settings::load(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw std::runtime_error(path + ": settings file not found");
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  if (!in) throw std::runtime_error(path + ": cannot be read");
+  if (text.str().rfind("%YAML", 0) != 0)
+    throw std::runtime_error(path + ": not a settings YAML file (its first line must be %YAML:1.0)");
   Settings s;
   s.path_ = path;
   try {
     if (!s.impl_->fs.open(path, cv::FileStorage::READ)) throw std::runtime_error("cannot open");
   } catch (const cv::Exception& e) {
-    throw std::runtime_error(path + ": not a settings YAML file (it must start with %YAML:1.0): " + e.err);
+    throw std::runtime_error(path + ": " + parseError(e));
   } catch (const std::runtime_error&) {
     throw std::runtime_error(path + ": cannot be read as a settings YAML file");
   }
+  checkDuplicateKeys(path, text.str());
   return s;
 }
 
@@ -43,8 +90,9 @@ Settings Settings::fromString(const std::string& yaml, const std::string& name) 
   try {
     s.impl_->fs.open(yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
   } catch (const cv::Exception& e) {
-    throw std::runtime_error(name + ": not a settings YAML text: " + e.err);
+    throw std::runtime_error(name + ": not a settings YAML text: " + parseError(e));
   }
+  checkDuplicateKeys(name, yaml);
   return s;
 }
 

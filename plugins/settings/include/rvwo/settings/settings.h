@@ -29,7 +29,8 @@ namespace rvwo {
 
 class Settings {
  public:
-  // Throws std::runtime_error "<path>: ..." when the file is missing or not a FileStorage YAML.
+  // Throws std::runtime_error "<path>: ..." when the file is missing, is not a FileStorage YAML
+  // (a syntax error's line named), or gives a top-level key twice (both lines named).
   static Settings load(const std::string& path);
   // The same from text (for tests and embedded defaults); `name` is used in messages.
   static Settings fromString(const std::string& yaml, const std::string& name = "<settings>");
