@@ -29,8 +29,8 @@
 // solved 7 to 15 in 90 s against 69 to 127 as recorded, and about one run in five drifted).
 // Bad records (odometry going backwards or NaN, an image of the wrong size or missing) are
 // skipped with a line on stderr; a truncated or corrupt rawlog stops the replay there: what was
-// estimated so far is written, and the exit status is 1. The settings, --gt, the sensors the
-// rawlog holds and the output paths are checked before the replay starts; SIGINT, SIGTERM or
+// estimated so far is written, and the exit status is 1. The settings, --gt, the rawlog's gz
+// stream (its CRC), the sensors it holds and the output paths are checked before the replay starts; SIGINT, SIGTERM or
 // SIGHUP stop it at the frame it is on, with what it has written (exit 130, 143, 129). Files are
 // written whole or not at all (support/output.h).
 #include <glog/logging.h>
@@ -56,6 +56,8 @@
 #include "replay/orbslam3_backend.h"
 #endif
 #include "replay/input.h"
+#include "replay/record_checks.h"
+#include "replay/request.h"
 #include "rvwo/semantics/onnx_segmenter.h"
 #include "support/plot.h"
 #include "support/trajectory.h"
@@ -63,6 +65,10 @@
 namespace {
 
 namespace fs = std::filesystem;
+using rvwo::apps::parseKernel;
+using rvwo::apps::parseMode;
+using rvwo::apps::ReplayArgs;
+using rvwo::apps::ReplayRequest;
 using rvwo::estimator::FrameInput;
 
 double peakMemoryMb() {
@@ -88,131 +94,6 @@ rvwo::apps::Trajectory toTrajectory(const std::vector<rvwo::estimator::PoseEstim
   rvwo::apps::Trajectory out;
   for (const auto& p : poses) out.push_back({p.timestamp, p.T_w_b.isometry3()});
   return out;
-}
-
-// The command line, in the order --help lists it.
-struct ReplayArgs {
-  TCLAP::CmdLine cmd{
-      "rvwo-replay: replays a rawlog (camera and wheel odometry, docs/rawlog.md) through the RVWO estimator "
-      "(visual-wheel odometry on SE(2) with adaptive robust kernels, local bundle adjustment, segmentation of "
-      "keyframes) and writes the robot's pose at every frame in TUM format, a report and a PNG plot. "
-      "Example: rvwo-sim --scenario scenarios/dynamic.yaml --out seq --duration 20 && rvwo-replay --settings "
-      "seq/settings.yaml --rawlog seq/sequence.rawlog --out traj.txt --gt seq/groundtruth.txt",
-      ' ', "0.1"};
-  TCLAP::ValueArg<std::string> settings{
-      "", "settings", "settings YAML (camera, extrinsic, odometry, ...)", true, "", "S.yaml", cmd};
-  TCLAP::ValueArg<std::string> rawlog{"", "rawlog", "the recording", true, "", "R.rawlog", cmd};
-  TCLAP::ValueArg<std::string> out{"", "out", "trajectory file to write (TUM format)", true, "", "traj.txt", cmd};
-  TCLAP::ValueArg<std::string> gt{
-      "", "gt", "ground truth (TUM): the report gives the ATE and the plot shows it", false, "", "gt.txt", cmd};
-  TCLAP::ValueArg<std::string> mode{
-      "", "mode", "wheel: dead reckoning; vo: vision only; vw: vision and wheels (default)", false, "vw", "wheel|vo|vw",
-      cmd};
-  TCLAP::ValueArg<std::string> kernel{
-      "",
-      "kernel",
-      "robust kernel on visual residuals: huber, fixed:<alpha> (a Barron shape for all), adaptive (default: each "
-      "landmark's shape from its reliability)",
-      false,
-      "adaptive",
-      "huber|fixed:A|adaptive",
-      cmd};
-  TCLAP::SwitchArg no_semantics{"", "no-semantics", "ignore labels: reliability from reprojection errors only", cmd};
-  TCLAP::ValueArg<std::string> segmenter{
-      "",
-      "segmenter",
-      "labels for keyframes: rawlog (the LABELS images in the rawlog, default when present), onnx:<model.onnx> "
-      "(a network, e.g. ../shared/models/deeplabv3_mnv2_voc21.onnx), or none",
-      false,
-      "auto",
-      "rawlog|onnx:FILE|none",
-      cmd};
-  TCLAP::SwitchArg deterministic{"", "deterministic",
-                                 "one thread, mapping and segmentation inline: same input, same output", cmd};
-  TCLAP::ValueArg<double> realtime{
-      "",
-      "realtime",
-      "feed the records at the pace they were recorded, x times faster (1: as on the robot); 0: as fast as "
-      "tracking goes, which leaves local mapping and segmentation (threads of their own) behind it. Default: 0, "
-      "and 1 with --backend orbslam3 (as ORB-SLAM3's examples feed it)",
-      false,
-      0,
-      "x",
-      cmd};
-  TCLAP::ValueArg<std::string> plot{"",         "plot", "PNG to write (default: the --out file with .png)", false, "",
-                                    "file.png", cmd};
-  TCLAP::ValueArg<std::string> align{
-      "", "align", "ATE alignment: se3 (default), sim3, posyaw, none", false, "se3", "se3|...", cmd};
-  TCLAP::SwitchArg quiet{"", "quiet", "no progress line", cmd};
-#ifdef RVWO_WITH_ORBSLAM3
-  TCLAP::ValueArg<std::string> backend{
-      "",
-      "backend",
-      "rvwo (default): RVWO's estimator; orbslam3: the patched ORB-SLAM3 this build was given (--mode vw: with "
-      "the wheels, vo: without, as upstream; --kernel adaptive|huber and, with the wheels, the keyframes' labels "
-      "(--segmenter, --no-semantics) apply to its tracking)",
-      false,
-      "rvwo",
-      "rvwo|orbslam3",
-      cmd};
-  TCLAP::ValueArg<std::string> vocabulary{
-      "",    "vocabulary", "ORB-SLAM3's DBoW2 vocabulary, text (--backend orbslam3; rvwo-orbslam3-vocab makes one)",
-      false, "",           "voc.txt",
-      cmd};
-#endif
-};
-
-// What the command line asked for, as plain values.
-struct ReplayRequest {
-  std::string settings, rawlog, out, gt, mode, kernel, segmenter, plot, align, backend = "rvwo", vocabulary;
-  bool no_semantics = false, deterministic = false, quiet = false, realtime_set = false;
-  double realtime = 0;
-
-  explicit ReplayRequest(ReplayArgs& a)
-      : settings(a.settings.getValue()),
-        rawlog(a.rawlog.getValue()),
-        out(a.out.getValue()),
-        gt(a.gt.getValue()),
-        mode(a.mode.getValue()),
-        kernel(a.kernel.getValue()),
-        segmenter(a.segmenter.getValue()),
-        plot(a.plot.getValue()),
-        align(a.align.getValue()),
-#ifdef RVWO_WITH_ORBSLAM3
-        backend(a.backend.getValue()),
-        vocabulary(a.vocabulary.getValue()),
-#endif
-        no_semantics(a.no_semantics.getValue()),
-        deterministic(a.deterministic.getValue()),
-        quiet(a.quiet.getValue()),
-        realtime_set(a.realtime.isSet()),
-        realtime(a.realtime.getValue()) {
-  }
-};
-
-rvwo::estimator::Mode parseMode(const std::string& mode) {
-  if (mode == "wheel") return rvwo::estimator::Mode::kWheel;
-  if (mode == "vo") return rvwo::estimator::Mode::kVo;
-  if (mode == "vw") return rvwo::estimator::Mode::kVw;
-  throw std::invalid_argument("--mode must be wheel, vo or vw, not '" + mode + "'");
-}
-
-// --kernel into opt's kernel choice (and its alpha for fixed:<alpha>).
-void parseKernel(const std::string& kernel, rvwo::estimator::EstimatorOptions* opt) {
-  if (kernel == "huber") {
-    opt->kernel = rvwo::estimator::KernelChoice::kHuber;
-  } else if (kernel == "adaptive") {
-    opt->kernel = rvwo::estimator::KernelChoice::kAdaptive;
-  } else if (kernel.rfind("fixed:", 0) == 0) {
-    opt->kernel = rvwo::estimator::KernelChoice::kFixed;
-    try {
-      opt->fixed_alpha = kernel.substr(6) == "-inf" ? -INFINITY : std::stod(kernel.substr(6));
-    } catch (const std::exception&) {
-      throw std::invalid_argument("--kernel fixed:<alpha>: '" + kernel.substr(6) + "' is not a number");
-    }
-  } else {
-    throw std::invalid_argument("--kernel must be huber, fixed:<alpha> or adaptive, not '" + kernel + "'");
-  }
 }
 
 // --realtime: a record of time t goes in no sooner than (t - t_ref) / x after t_ref's. A time that
@@ -276,7 +157,7 @@ class ReplayApp {
                    rep_.frames, req().out.c_str());
       return 1;
     }
-    return 0;
+    return checkLabels();
   }
 
  private:
@@ -308,6 +189,10 @@ class ReplayApp {
     if (odometry_input_ == "encoders" && !(ticks_per_rev_ > 0))
       throw std::invalid_argument(settings.path() + ": missing key Odometry.TicksPerRevolution (for encoders)");
     if (rig_.sensor == rvwo::estimator::Sensor::kRgbd) rig_.depth_factor = 1.0;  // the reader gives metres
+    limits_ = rvwo::apps::readOdometryLimits(settings);
+    max_gap_ = settings.number("Rawlog.MaxGap").value_or(max_gap_);
+    if (!(max_gap_ > 0) || !std::isfinite(max_gap_))
+      throw std::invalid_argument(settings.path() + ": Rawlog.MaxGap must be > 0 s");
 #ifdef RVWO_WITH_ORBSLAM3
     if (req().backend == "orbslam3") {
       use_orbslam3_ = true;
@@ -355,6 +240,7 @@ class ReplayApp {
     const bool wheels = opt_.mode != rvwo::estimator::Mode::kVo;
     std::vector<std::string> needed{camera_label_};
     if (wheels) needed.push_back(odometry_label_);
+    checkStream();
     const rvwo::apps::RawlogSurvey survey = rvwo::apps::surveyRawlog(req().rawlog, needed);
     if (!survey.whole) return;  // all seen, or damaged before: the replay reports it where it comes
     const std::string& rawlog = req().rawlog;
@@ -366,6 +252,15 @@ class ReplayApp {
       throw std::runtime_error(rawlog + ": no odometry (sensor label '" + odometry_label_ + "'; the file has " +
                                survey.describe() + "): set Rawlog.OdometryLabel in " + req().settings +
                                ", or run --mode vo");
+  }
+
+  // The gz stream whole before any record is used: a damaged one is refused (its CRC covers the
+  // whole stream, so no record of it can be trusted); one cut short replays up to the cut.
+  void checkStream() {
+    stream_ = rvwo::apps::checkRawlogStream(req().rawlog);
+    if (stream_.result == rvwo::apps::StreamCheck::Result::kDamaged)
+      throw std::runtime_error(req().rawlog + ": damaged (zlib: " + stream_.error +
+                               "): no record of it can be trusted; nothing replayed (copy it again from its source)");
   }
 
   void makeSegmenter() {
@@ -448,8 +343,12 @@ class ReplayApp {
     held_.reset();
   }
 
-  // One odometry record, as the settings' Odometry.Input says it is to be read.
+  // One odometry record, as the settings' Odometry.Input says it is to be read, if the gate
+  // finds it one a wheeled robot can give (else invalid_argument saying why).
   void addOdometry(const rvwo::apps::OdometryRecord& o) {
+    const auto pass = [](const std::string& why) {
+      if (!why.empty()) throw std::invalid_argument(why);
+    };
     if (odometry_input_ == "encoders") {
       if (!o.has_encoders) throw std::invalid_argument("no encoder ticks (Odometry.Input is encoders)");
       const double k = 2 * M_PI / ticks_per_rev_;
@@ -458,6 +357,7 @@ class ReplayApp {
         q_right0_ = o.ticks_right;
       }
       const double ql = (o.ticks_left - q_left0_) * k, qr = (o.ticks_right - q_right0_) * k;
+      pass(gate_->wheelAngles(o.t, ql, qr));
 #ifdef RVWO_WITH_ORBSLAM3
       if (orbslam3_) orbslam3_->addWheels(rvwo::orbslam3::WheelReading::angles(o.t, ql, qr), orbslam3Progress());
 #endif
@@ -467,11 +367,13 @@ class ReplayApp {
       const double b = opt_.drive.track;
       const double wl = (o.v - o.omega * b / 2) / opt_.drive.radius_left,
                    wr = (o.v + o.omega * b / 2) / opt_.drive.radius_right;
+      pass(gate_->wheelSpeeds(o.t, wl, wr));
 #ifdef RVWO_WITH_ORBSLAM3
       if (orbslam3_) orbslam3_->addWheels(rvwo::orbslam3::WheelReading::speeds(o.t, wl, wr), orbslam3Progress());
 #endif
       if (estimator_) estimator_->addWheelSpeeds(o.t, wl, wr);
     } else {
+      pass(gate_->pose(o.t, o.pose));
 #ifdef RVWO_WITH_ORBSLAM3
       if (orbslam3_) {
         orbslam3_->addWheels(
@@ -483,39 +385,21 @@ class ReplayApp {
     }
   }
 
-  // Every record of the rawlog, in order, to the backend.
+  // Every record of the rawlog, in order, to the backend, past the record clock.
   void replay() {
     rvwo::apps::Prefetcher reader(req().rawlog, camera_label_, odometry_label_, rawlog_labels_ ? labels_label_ : "",
                                   opt_.mode != rvwo::estimator::Mode::kWheel);
     tty_ = isatty(fileno(stderr)) && !req().quiet;
     t_start_ = std::chrono::steady_clock::now();
     Pacer pacer(realtime_, t_start_);
+    rvwo::apps::RecordClock clock(max_gap_);
+    gate_.emplace(limits_, opt_.drive);
     while (auto e = reader.next()) {
       if (rvwo::apps::interruptSignal()) break;  // stop at the frame it is on
-      if (auto* l = std::get_if<rvwo::apps::LabelsRecord>(&*e)) {
-        if (rawlog_labels_) rawlog_labels_->add(l->t, l->image);
-        if (held_ && std::fabs(held_->timestamp - l->t) < 1e-6) flush();
-        continue;
-      }
-      flush();
-      if (auto* f = std::get_if<FrameInput>(&*e)) {
-        pacer.wait(f->timestamp);
-        if (std::isnan(first_t_)) first_t_ = f->timestamp;
-        last_t_ = f->timestamp;
-        held_ = std::move(*f);
-      } else if (auto* o = std::get_if<rvwo::apps::OdometryRecord>(&*e)) {
-        ++odometry_count_;
-        pacer.wait(o->t);
-        if (opt_.mode == rvwo::estimator::Mode::kVo) continue;
-        try {
-          addOdometry(*o);
-          ++odometry_used_;
-        } catch (const std::invalid_argument& ex) {
-          skip("odometry at t = " + std::to_string(o->t) + ": " + ex.what());
-        }
-      } else if (auto* s = std::get_if<rvwo::apps::SkippedRecord>(&*e)) {
-        skip(s->why);
-      }
+      for (rvwo::apps::ReplayEvent& event : clock.admit(std::move(*e))) handle(event, pacer);
+    }
+    if (!rvwo::apps::interruptSignal()) {
+      for (rvwo::apps::ReplayEvent& event : clock.finish()) handle(event, pacer);
     }
     flush();
 #ifdef RVWO_WITH_ORBSLAM3
@@ -523,6 +407,34 @@ class ReplayApp {
 #endif
     read_error_ = reader.error();
     records_ = reader.records();
+  }
+
+  // One record to the backend (a frame is held until the next record: flush).
+  void handle(rvwo::apps::ReplayEvent& e, Pacer& pacer) {
+    if (auto* l = std::get_if<rvwo::apps::LabelsRecord>(&e)) {
+      if (rawlog_labels_) rawlog_labels_->add(l->t, l->image);
+      if (held_ && std::fabs(held_->timestamp - l->t) < 1e-6) flush();
+      return;
+    }
+    flush();
+    if (auto* f = std::get_if<FrameInput>(&e)) {
+      pacer.wait(f->timestamp);
+      if (std::isnan(first_t_)) first_t_ = f->timestamp;
+      last_t_ = f->timestamp;
+      held_ = std::move(*f);
+    } else if (auto* o = std::get_if<rvwo::apps::OdometryRecord>(&e)) {
+      ++odometry_count_;
+      pacer.wait(o->t);
+      if (opt_.mode == rvwo::estimator::Mode::kVo) return;
+      try {
+        addOdometry(*o);
+        ++odometry_used_;
+      } catch (const std::invalid_argument& ex) {
+        skip("odometry at t = " + std::to_string(o->t) + ": " + ex.what());
+      }
+    } else if (auto* s = std::get_if<rvwo::apps::SkippedRecord>(&e)) {
+      skip(s->why);
+    }
   }
 
   // The backend's trajectory and report, and which poses followed the wheels alone.
@@ -569,6 +481,26 @@ class ReplayApp {
     if (est_.empty()) throw std::runtime_error("ORB-SLAM3 kept no pose (its log: the --out file with .orbslam3.log)");
   }
 
+  // The default segmenter on a rawlog without label images: none (each keyframe's "no label image").
+  bool labelsAbsent() const { return rawlog_labels_ && !rawlog_labels_->any() && req().segmenter == "auto"; }
+
+  // Labels asked for that never came are a run without semantics: an error once the outputs are
+  // written (a run where only some failed says so in one line).
+  int checkLabels() const {
+    if (rep_.segmentation_failures == 0 || labelsAbsent()) return 0;
+    if (rep_.segmented_keyframes == 0) {
+      std::fprintf(stderr,
+                   "rvwo-replay: error: no keyframe could use its labels (%zu failed; the first: %s): the run went "
+                   "without semantics (its trajectory is written to %s)\n",
+                   rep_.segmentation_failures, rep_.segmentation_error.c_str(), req().out.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "rvwo-replay: warning: %zu of %zu keyframes could not use their labels (the first: %s)\n",
+                 rep_.segmentation_failures, rep_.segmentation_failures + rep_.segmented_keyframes,
+                 rep_.segmentation_error.c_str());
+    return 0;
+  }
+
   // "what: count (t0-t1 s, ...)", at most eight stretches.
   void stretches(const char* what, std::size_t count, const std::vector<std::pair<double, double>>& in) const {
     std::printf("  %s: %zu", what, count);
@@ -590,20 +522,23 @@ class ReplayApp {
                   vw() ? seg_name_.c_str() : "none (without the wheels)", rep_.segmented_keyframes);
     } else {
       std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog.c_str(), req().mode.c_str(),
-                  req().kernel.c_str(), seg_name_.c_str());
+                  req().kernel.c_str(), labelsAbsent() ? "none (the rawlog has no label images)" : seg_name_.c_str());
       std::printf(
           "  frames %zu over %.1f s, keyframes %zu, map points made %zu (rejected by the kernel: %zu), segmented "
           "keyframes %zu\n",
           rep_.frames, seq_s, rep_.keyframes, rep_.map_points_created, rep_.map_points_rejected,
           rep_.segmented_keyframes);
     }
-    if (rawlog_labels_) {
-      const auto [failed, first] = rawlog_labels_->failures();
-      if (failed > 0)
-        std::printf("  label images that could not be read: %zu (their keyframes went unlabelled; first: %s)\n", failed,
-                    first.c_str());
-    }
+    if (rep_.segmentation_failures > 0 && !labelsAbsent())
+      std::printf("  keyframes whose labels could not be used: %zu (they went unlabelled; the first: %s)\n",
+                  rep_.segmentation_failures, rep_.segmentation_error.c_str());
     reportDecisions();
+    using Check = rvwo::apps::StreamCheck::Result;
+    std::printf("  rawlog check: %s, %.1f MB in %.2f s\n",
+                stream_.result == Check::kIntact         ? "gz CRC intact"
+                : stream_.result == Check::kUncompressed ? "none (uncompressed: damage cannot be detected)"
+                                                         : "cut short (replayed up to the cut)",
+                stream_.bytes / 1e6, stream_.seconds);
     if (skipped_ > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped_);
     if (opt_.mode != rvwo::estimator::Mode::kVo && odometry_used_ < odometry_count_)
       std::printf("  odometry records used: %zu of %zu\n", odometry_used_, odometry_count_);
@@ -721,9 +656,12 @@ class ReplayApp {
   std::optional<rvwo::Settings> settings_;
   rvwo::estimator::Rig rig_;
   rvwo::estimator::EstimatorOptions opt_;
-  double realtime_ = 0, ticks_per_rev_ = 0;
+  double realtime_ = 0, ticks_per_rev_ = 0, max_gap_ = 1.0;  // max_gap_: s (Rawlog.MaxGap)
+  rvwo::apps::OdometryLimits limits_;
+  std::optional<rvwo::apps::OdometryGate> gate_;
   std::string odometry_input_, seg_name_ = "none", camera_label_, odometry_label_, labels_label_, plot_path_;
   rvwo::apps::Trajectory gt_;  // --gt, read before the replay
+  rvwo::apps::StreamCheck stream_;
   rvwo::apps::Alignment alignment_ = rvwo::apps::Alignment::kSE3;
   bool use_orbslam3_ = false, tty_ = false;
   std::shared_ptr<rvwo::Segmenter> segmenter_;

@@ -8,6 +8,7 @@ colour channel c, so a red pixel is class 0, green class 1, blue class 2.
   tiny_nhwc.onnx       input float32 [1, 8, 8, 3] (NHWC) -> "scores" [1, 3, 8, 8]
   tiny_int_input.onnx  input int32 (a wrong element type, for the error test)
   tiny_rank3.onnx      input float32 [3, 8, 8] (a wrong rank, for the error test)
+  tiny_nan.onnx        as tiny_scores, but class 0's weight is NaN: every score of it is NaN
 
 Needs the `onnx` Python package (developers only: the generated files are committed).
 ONNX Runtime 1.21 reads IR version <= 10; these use IR 8, opset 13.
@@ -21,8 +22,8 @@ from onnx import TensorProto, helper
 OUT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "semantics", "data")
 
 
-def identity_conv(input_name, output_name):
-    w = helper.make_tensor("w", TensorProto.FLOAT, [3, 3, 1, 1], [1, 0, 0, 0, 1, 0, 0, 0, 1])
+def identity_conv(input_name, output_name, first=1.0):
+    w = helper.make_tensor("w", TensorProto.FLOAT, [3, 3, 1, 1], [first, 0, 0, 0, 1, 0, 0, 0, 1])
     node = helper.make_node("Conv", [input_name, "w"], [output_name], kernel_shape=[1, 1])
     return node, w
 
@@ -63,6 +64,9 @@ def main():
     axes = helper.make_tensor("axes", TensorProto.INT64, [1], [0])
     conv, w = identity_conv("x4", "scores")
     save(helper.make_graph([unsq, conv], "tiny_rank3", [rank3], [scores], [w, axes]), "tiny_rank3.onnx")
+
+    conv, w = identity_conv("image", "scores", first=float("nan"))
+    save(helper.make_graph([conv], "tiny_nan", [image], [scores], [w]), "tiny_nan.onnx")
 
 
 if __name__ == "__main__":

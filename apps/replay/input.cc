@@ -32,19 +32,8 @@ Segmentation RawlogLabels::segment(const cv::Mat&, const FrameInfo& info) {
   const mrpt::img::CImage image = it->second;
   lock.unlock();
   Segmentation s;
-  try {
-    loadImage(image, cv::IMREAD_UNCHANGED).convertTo(s.labels, CV_32S);
-  } catch (const std::exception& e) {
-    std::lock_guard<std::mutex> elock(mutex_);
-    if (failures_++ == 0) first_failure_ = e.what();
-    throw;
-  }
+  loadImage(image, cv::IMREAD_UNCHANGED).convertTo(s.labels, CV_32S);
   return s;
-}
-
-std::pair<std::size_t, std::string> RawlogLabels::failures() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return {failures_, first_failure_};
 }
 
 bool RawlogSurvey::has(const std::string& label) const {
@@ -57,7 +46,8 @@ bool RawlogSurvey::has(const std::string& label) const {
 std::string RawlogSurvey::describe() const {
   std::string out;
   for (const Sensor& s : sensors)
-    out += (out.empty() ? "" : ", ") + s.label + ": " + s.type + " x " + std::to_string(s.count);
+    out += (out.empty() ? "" : ", ") + (s.label.empty() ? "(no label)" : s.label) + ": " + s.type + " x " +
+           std::to_string(s.count);
   return out.empty() ? "nothing" : out;
 }
 

@@ -38,15 +38,11 @@ class RawlogLabels final : public Segmenter {
   bool any() const;
   Segmentation segment(const cv::Mat&, const FrameInfo& info) override;
   const std::vector<std::string>& classNames() const override { return classes_; }
-  // Label images that could not be decoded, and the first one's error.
-  std::pair<std::size_t, std::string> failures() const;
 
  private:
   std::vector<std::string> classes_;
   mutable std::mutex mutex_;
   std::map<double, mrpt::img::CImage> labels_;
-  std::size_t failures_ = 0;
-  std::string first_failure_;
 };
 
 // What the reader thread hands over, in rawlog order.

@@ -3,12 +3,17 @@
 
 #include <mrpt/img/CImage.h>
 #include <mrpt/obs/CActionCollection.h>
+#include <mrpt/obs/CActionRobotMovement2D.h>
+#include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CSensoryFrame.h>
 #include <mrpt/serialization/CArchive.h>
+#include <zlib.h>
 
+#include <chrono>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 namespace rvwo::apps {
 
@@ -57,7 +62,12 @@ std::optional<mrpt::obs::CObservation::Ptr> RawlogReader::next() {
       pending_.push_back(obs);
     } else if (auto sf = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(object)) {
       for (const auto& o : *sf) pending_.push_back(o);  // MRPT's (action, frame) format: flattened
-    } else if (!std::dynamic_pointer_cast<mrpt::obs::CActionCollection>(object)) {
+    } else if (auto actions = std::dynamic_pointer_cast<mrpt::obs::CActionCollection>(object)) {
+      for (const auto& a : *actions) {
+        if (auto move = std::dynamic_pointer_cast<mrpt::obs::CActionRobotMovement2D>(a.get_ptr()))
+          pending_.push_back(odometryOf(*move));
+      }
+    } else {
       throw RawlogError(path_, count_, std::string("not an observation: ") + object->GetRuntimeClass()->className);
     }
     if (pending_.empty()) ++count_;  // an action or an empty frame
@@ -66,6 +76,24 @@ std::optional<mrpt::obs::CObservation::Ptr> RawlogReader::next() {
   pending_.pop_front();
   ++count_;
   return obs;
+}
+
+mrpt::obs::CObservation::Ptr RawlogReader::odometryOf(const mrpt::obs::CActionRobotMovement2D& move) {
+  action_pose_ = action_pose_ + move.rawOdometryIncrementReading;
+  auto o = std::make_shared<mrpt::obs::CObservationOdometry>();
+  o->sensorLabel = "ODOMETRY";
+  o->timestamp = move.timestamp;
+  o->odometry = action_pose_;
+  if (move.hasEncodersInfo) {  // increments in the action, cumulative in an observation
+    action_ticks_left_ += move.encoderLeftTicks;
+    action_ticks_right_ += move.encoderRightTicks;
+    o->hasEncodersInfo = true;
+    o->encoderLeftTicks = static_cast<int32_t>(action_ticks_left_);
+    o->encoderRightTicks = static_cast<int32_t>(action_ticks_right_);
+  }
+  o->hasVelocities = move.hasVelocities;
+  o->velocityLocal = move.velocityLocal;
+  return o;
 }
 
 std::string mrptMessage(const std::string& what) {
@@ -105,6 +133,30 @@ cv::Mat loadImage(const mrpt::img::CImage& image, int flags) {
     return grey;
   }
   return m.clone();
+}
+
+StreamCheck checkRawlogStream(const std::string& path) {
+  StreamCheck c;
+  const auto t0 = std::chrono::steady_clock::now();
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) throw std::runtime_error(path + ": cannot be opened");
+  std::vector<char> buffer(1 << 20);
+  int n = 0;
+  while ((n = gzread(f, buffer.data(), static_cast<unsigned>(buffer.size()))) > 0)
+    c.bytes += static_cast<std::size_t>(n);
+  int code = Z_OK;
+  const char* what = gzerror(f, &code);
+  if (gzdirect(f)) {
+    c.result = StreamCheck::Result::kUncompressed;
+  } else if (n < 0 || code != Z_OK) {
+    c.error = what ? what : "unknown zlib error";
+    if (c.error.rfind(path + ": ", 0) == 0) c.error = c.error.substr(path.size() + 2);  // zlib names the file
+    // zlib says "unexpected end of file" for a stream cut short; anything else is damage.
+    c.result = code == Z_BUF_ERROR ? StreamCheck::Result::kTruncated : StreamCheck::Result::kDamaged;
+  }
+  gzclose(f);
+  c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return c;
 }
 
 }  // namespace rvwo::apps

@@ -1,7 +1,8 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 //
 // Rawlog files (MRPT's "observations only" format: one serialized CObservation after another,
-// gz-compressed), as docs/rawlog.md lays them out for RVWO.
+// gz-compressed), as docs/rawlog.md lays them out for RVWO. The older action/observation format is
+// read too: a sensory frame's observations in turn, and odometry actions as odometry observations.
 //
 // External images (CImage::setExternalStorage) are looked for in "<rawlog without .rawlog>_Images/"
 // beside the file, MRPT's convention; the reader sets that folder itself
@@ -11,7 +12,9 @@
 #include <mrpt/img/CImage.h>
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/obs/CActionRobotMovement2D.h>
 #include <mrpt/obs/CObservation.h>
+#include <mrpt/poses/CPose2D.h>
 
 #include <deque>
 #include <memory>
@@ -63,7 +66,24 @@ class RawlogReader {
   mrpt::io::CFileGZInputStream in_;
   std::size_t count_ = 0;
   std::deque<mrpt::obs::CObservation::Ptr> pending_;  // from a sensory frame, flattened
+
+  // MRPT's odometry action (an increment) as the odometry observation it would be: sensor label
+  // ODOMETRY, the increments summed into a pose (and encoder ticks), the action's timestamp.
+  mrpt::obs::CObservation::Ptr odometryOf(const mrpt::obs::CActionRobotMovement2D& move);
+  mrpt::poses::CPose2D action_pose_;
+  std::int64_t action_ticks_left_ = 0, action_ticks_right_ = 0;
 };
+
+// The whole gz stream of a rawlog read once before its records are used: zlib checks its CRC
+// only at the end, so a damaged byte could otherwise decode into a wrong value that is delivered
+// before the error shows. An uncompressed rawlog carries no check.
+struct StreamCheck {
+  enum class Result { kIntact, kUncompressed, kTruncated, kDamaged } result = Result::kIntact;
+  std::string error;      // zlib's words, for kTruncated and kDamaged
+  std::size_t bytes = 0;  // decompressed
+  double seconds = 0.0;   // the check's wall time
+};
+StreamCheck checkRawlogStream(const std::string& path);
 
 // A rawlog image as OpenCV reads it: an external file decoded with cv::imread flags (throws
 // std::runtime_error "cannot read image <path>" when it cannot be), an image stored in the rawlog

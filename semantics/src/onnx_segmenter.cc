@@ -209,6 +209,13 @@ Segmentation OnnxSegmenter::segment(const cv::Mat& image, const FrameInfo&) {
                                " classes, the label set has " + std::to_string(m.classes));
     }
     const float* s = outputs[0].GetTensorData<float>();
+    // Scores that are not numbers would all lose the comparison below: every pixel the first class.
+    const std::size_t n = opl * static_cast<std::size_t>(m.classes);
+    const std::size_t bad =
+        static_cast<std::size_t>(std::count_if(s, s + n, [](float v) { return !std::isfinite(v); }));
+    if (bad > 0)
+      throw std::runtime_error("segmenter: " + std::to_string(bad) + " of the network's " + std::to_string(n) +
+                               " scores are not finite numbers: no labels from it");
     if (m.o.confidence) confidence.create(oh, ow, CV_32F);
     for (std::size_t p = 0; p < opl; ++p) {
       int best = 0;

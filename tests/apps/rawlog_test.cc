@@ -11,6 +11,7 @@
 #include <mrpt/obs/CObservationStereoImages.h>
 #include <mrpt/system/datetime.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -215,6 +216,67 @@ TEST(Rawlog, CorruptBytesAndMissingFileGetClearErrors) {
   std::ofstream(dir / "empty.rawlog").close();
   RawlogReader empty((dir / "empty.rawlog").string());
   EXPECT_FALSE(empty.next().has_value());
+}
+
+// The gz check before replay: a whole stream is intact, one with a flipped bit damaged (though
+// the reader delivers records before the damage shows), one cut short truncated, and a plain
+// (uncompressed) file has no check to make.
+TEST(Rawlog, TheStreamCheckTellsDamageFromACutAndFromNoCheck) {
+  const fs::path dir = fresh("rvwo_rawlog_check");
+  const std::string path = writeOdometry(dir, 4000, 1);
+  const std::string bytes = rvwo::test::slurp(path);
+  StreamCheck c = checkRawlogStream(path);
+  EXPECT_EQ(c.result, StreamCheck::Result::kIntact) << c.error;
+  EXPECT_GT(c.bytes, 4000u * 50);
+  // (A flip that hits the stream's last block can make it read as cut short instead: docs/rawlog.md.)
+  for (const std::size_t at : {bytes.size() / 4, bytes.size() / 3, bytes.size() / 2, bytes.size() * 2 / 3}) {
+    std::string flipped = bytes;
+    flipped[at] = static_cast<char>(flipped[at] ^ 0x10);
+    std::ofstream(dir / "flipped.rawlog", std::ios::binary) << flipped;
+    c = checkRawlogStream((dir / "flipped.rawlog").string());
+    EXPECT_EQ(c.result, StreamCheck::Result::kDamaged) << "byte " << at << ": " << c.error;
+    EXPECT_FALSE(c.error.empty());
+  }
+  std::ofstream(dir / "cut.rawlog", std::ios::binary) << bytes.substr(0, bytes.size() * 2 / 3);
+  c = checkRawlogStream((dir / "cut.rawlog").string());
+  EXPECT_EQ(c.result, StreamCheck::Result::kTruncated) << c.error;
+  EXPECT_EQ(c.error, "unexpected end of file");
+  const std::string plain = (dir / "plain.rawlog").string();
+  ASSERT_EQ(std::system(("gzip -dc " + path + " > " + plain).c_str()), 0);
+  c = checkRawlogStream(plain);
+  EXPECT_EQ(c.result, StreamCheck::Result::kUncompressed);
+  RawlogReader r(plain);
+  std::size_t n = 0;
+  while (r.next()) ++n;
+  EXPECT_EQ(n, 4000u);  // read all the same
+}
+
+// A real 2006 MRPT rawlog in the action/observation format: its 224 odometry actions come out as
+// ODOMETRY observations whose pose sums their increments, in time order; its laser scans as they are.
+TEST(Rawlog, OdometryActionsOfAnOldMrptRawlogAreReadAsOdometry) {
+  const std::string file = std::string(RVWO_SHARED_DIR) + "/data/mrpt_rawlogs/laser_odometry_actions_2006.rawlog";
+  if (!fs::exists(file)) GTEST_SKIP() << "../shared is absent: no MRPT action/observation rawlog";
+  RawlogReader r(file);
+  std::size_t odometry = 0, scans = 0;
+  double last_t = -1e300, travelled = 0;
+  mrpt::poses::CPose2D last;
+  while (auto o = r.next()) {
+    if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(*o)) {
+      ++odometry;
+      EXPECT_EQ(od->sensorLabel, "ODOMETRY");
+      const double t = mrpt::Clock::toDouble(od->timestamp);
+      EXPECT_GT(t, last_t) << odometry;
+      last_t = t;
+      travelled += (od->odometry - last).norm();
+      last = od->odometry;
+    } else {
+      ++scans;
+    }
+  }
+  EXPECT_EQ(odometry, 224u);
+  EXPECT_EQ(scans, 225u);
+  EXPECT_GT(travelled, 5.0);  // a loop of a faculty's corridors
+  EXPECT_LT(travelled, 500.0);
 }
 
 TEST(Rawlog, MrptMessageIsTheInnermostCause) {

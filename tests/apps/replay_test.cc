@@ -6,12 +6,15 @@
 // a blackout without a jump), the adaptive kernel beats Huber among walkers and costs nothing
 // where nothing moves. Bad input: one clear line, a non-zero exit, output already estimated kept.
 #include <gtest/gtest.h>
+#include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CObservationOdometry.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 #include <utility>
 #include <vector>
@@ -644,6 +647,97 @@ TEST(Replay, InterruptedWritesWhatItHasAndExitsWithTheSignal) {
   fs::remove_all(dir);
 }
 
+// The faults, each in one record: a camera time corrupted to 1.8e12 s, odometry 1000 m
+// off (read as poses), encoder ticks that jump by 1e6 or back by 5000 (read as ticks). Each is
+// skipped with a line naming it; every other frame keeps its pose, within 1 cm of the truth.
+TEST(Replay, FaultyRecordsAreSkippedNotBelieved) {
+  const fs::path dir = simulate("static", 4);
+  {
+    RawlogReader in((dir / "sequence.rawlog").string());
+    RawlogWriter out((dir / "faulty.rawlog").string());
+    int frames = 0, odometry = 0;
+    while (auto o = in.next()) {
+      if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(*o)) {
+        ++odometry;
+        if (odometry == 100) od->odometry.x(od->odometry.x() + 1000.0);
+        if (odometry == 150) od->encoderLeftTicks += 1000000;
+        if (odometry == 200) od->encoderRightTicks -= 5000;
+      } else if ((*o)->sensorLabel == "CAMERA" && ++frames == 40) {
+        (*o)->timestamp = mrpt::Clock::fromDouble(1.8e12);
+      }
+      out.write(**o);
+    }
+  }
+  fs::create_directory_symlink(dir / "sequence_Images", dir / "faulty_Images");
+  std::ofstream(dir / "poses.yaml") << slurp(dir / "settings.yaml") << "Odometry.Input: \"pose\"\n";
+  const Trajectory gt = readTum((dir / "groundtruth.txt").string());
+  for (const std::string settings : {"settings.yaml", "poses.yaml"}) {
+    std::string out, err;
+    const int rc =
+        replayRaw(dir, settings,
+                  "--deterministic --rawlog " + (dir / "faulty.rawlog").string() + " --out " + (dir / "t.txt").string(),
+                  &out, &err);
+    ASSERT_EQ(rc, 0) << settings << ": " << err;
+    EXPECT_NE(err.find("skipped frame at t = 1800000000000.000000: its time jumps "), std::string::npos) << err;
+    if (settings == "poses.yaml") {
+      EXPECT_NE(err.find(": a speed of 1e+05 m/s over "), std::string::npos) << err;
+      EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 2) << err;
+    } else {
+      EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 3) << err;
+      EXPECT_EQ(err.find("m/s over ") != std::string::npos, true) << err;
+    }
+    const Trajectory est = readTum((dir / "t.txt").string());
+    EXPECT_EQ(est.size(), gt.size() - 1) << settings;
+    const auto pairs = associate(gt, est, 0.005);
+    EXPECT_EQ(pairs.size(), gt.size() - 1);
+    EXPECT_LT(ate(gt, est, pairs, Alignment::kSE3).stats.max, 0.01) << settings;
+  }
+  fs::remove_all(dir);
+}
+
+// Label images of another size than the camera's are not looked up: each such keyframe is
+// counted and named; when none could use its labels the run is an error (its trajectory written).
+TEST(Replay, LabelImagesOfAnotherSizeAreNotUsed) {
+  const fs::path dir = simulate("static", 3);
+  for (const std::string name : {"small", "some_small"}) {
+    RawlogReader in((dir / "sequence.rawlog").string());
+    RawlogWriter out((dir / (name + ".rawlog")).string());
+    int labels = 0;
+    while (auto o = in.next()) {
+      auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(*o);
+      if (im && im->sensorLabel == "LABELS" && (name == "small" || ++labels % 2 == 0)) {
+        cv::Mat half;
+        cv::resize(loadImage(im->image, cv::IMREAD_UNCHANGED), half, cv::Size(), 0.5, 0.5, cv::INTER_NEAREST);
+        im->image = mrpt::img::CImage(half, mrpt::img::DEEP_COPY);
+      }
+      out.write(**o);
+    }
+    fs::create_directory_symlink(dir / "sequence_Images", dir / (name + "_Images"));
+  }
+  std::string out, err;
+  const std::string traj = (dir / "t.txt").string();
+  EXPECT_EQ(replayRaw(dir, "settings.yaml",
+                      "--deterministic --rawlog " + (dir / "small.rawlog").string() + " --out " + traj, &out, &err),
+            1);
+  EXPECT_EQ(err.rfind("rvwo-replay: error: no keyframe could use its labels (", 0), 0u) << err;
+  EXPECT_NE(err.find(": label image 320x240 for a camera image 640x480): the run went without semantics (its "
+                     "trajectory is written to " +
+                     traj + ")\n"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  EXPECT_NE(out.find("keyframes whose labels could not be used: "), std::string::npos) << out;
+  EXPECT_EQ(lines(traj), lines(dir / "groundtruth.txt"));
+  EXPECT_EQ(
+      replayRaw(dir, "settings.yaml",
+                "--deterministic --rawlog " + (dir / "some_small.rawlog").string() + " --out " + traj, &out, &err),
+      0)
+      << err;
+  EXPECT_EQ(err.rfind("rvwo-replay: warning: ", 0), 0u) << err;
+  EXPECT_NE(err.find(" keyframes could not use their labels (the first: keyframe at t = "), std::string::npos) << err;
+  fs::remove_all(dir);
+}
+
 TEST(Replay, BadInputGetsOneClearLine) {
   const fs::path dir = simulate("static", 3);
   // A missing settings key.
@@ -680,6 +774,26 @@ TEST(Replay, BadInputGetsOneClearLine) {
       0);
   EXPECT_NE(slurp(dir / "e2.txt").find("skipped odometry at t = 0.100000"), std::string::npos) << slurp(dir / "e2.txt");
   EXPECT_EQ(lines(dir / "y.txt"), lines(dir / "groundtruth.txt"));
+  // A bit flipped inside the gz stream: refused before any record, nothing written.
+  {
+    std::string bytes = slurp(dir / "sequence.rawlog");
+    bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x04);
+    std::ofstream(dir / "flipped.rawlog", std::ios::binary) << bytes;
+    fs::create_directory_symlink(dir / "sequence_Images", dir / "flipped_Images");
+    fs::remove(dir / "f.txt");
+    const std::string f = std::string(RVWO_REPLAY) + " --quiet --settings " + (dir / "settings.yaml").string() +
+                          " --deterministic --out " + (dir / "f.txt").string() + " --rawlog " +
+                          (dir / "flipped.rawlog").string() + " > " + (dir / "f.stdout").string() + " 2> " +
+                          (dir / "f.stderr").string();
+    EXPECT_EQ(WEXITSTATUS(std::system(f.c_str())), 1);
+    const std::string e = slurp(dir / "f.stderr");
+    EXPECT_EQ(e.rfind("rvwo-replay: error: " + (dir / "flipped.rawlog").string() + ": damaged (zlib: ", 0), 0u) << e;
+    EXPECT_NE(e.find("): no record of it can be trusted; nothing replayed (copy it again from its source)\n"),
+              std::string::npos)
+        << e;
+    EXPECT_EQ(slurp(dir / "f.stdout"), "");
+    EXPECT_FALSE(fs::exists(dir / "f.txt"));
+  }
   // A truncated rawlog: the error names the record, the frames before it are written, exit 1.
   {
     const std::string bytes = slurp(dir / "sequence.rawlog");

@@ -1,6 +1,6 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 // The segmentation hook: exact labels from tiny generated models (scores and label outputs, NCHW
-// and NHWC), a clear error for each bad input, label images, keypoint labels with dilation, the
+// and NHWC), a clear error for each bad input (NaN scores too), label images, keypoint labels with dilation, the
 // async runner under two producers and a slow model, and the real DeepLabV3 network on real
 // TUM frames (skipped without ../shared).
 #include <gtest/gtest.h>
@@ -135,6 +135,16 @@ TEST(OnnxSegmenter, BadInputsGetOneClearError) {
   EXPECT_THROW(ok.segment(cv::Mat()), std::invalid_argument);
   EXPECT_THROW(ok.segment(cv::Mat(10, 10, CV_16UC3)), std::invalid_argument);
   EXPECT_NO_THROW(ok.segment(cv::Mat(10, 10, CV_8UC1, cv::Scalar(7))));  // grey is accepted
+  // A network whose scores are not numbers gives no labels (not every pixel the first class).
+  cv::Mat want;
+  OnnxSegmenter nan(tiny("tiny_nan.onnx"));
+  try {
+    nan.segment(blocks(&want));
+    FAIL() << "labels from NaN scores";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "segmenter: 64 of the network's 192 scores are not finite numbers: no labels from it");
+  }
 }
 
 TEST(LabelImageSegmenter, NearestTimestampAndValueMapping) {

@@ -143,6 +143,10 @@ Report Estimator::report() const {
   r.keyframes = impl_->next_kf;
   r.slip_frames = impl_->slip_frames;
   r.wheel_edge_outliers = impl_->wheel_outliers;
+  if (impl_->async && impl_->async->stats().failed > 0) {
+    r.segmentation_failures += impl_->async->stats().failed;
+    if (r.segmentation_error.empty()) r.segmentation_error = "a keyframe: " + impl_->async->lastError();
+  }
   {
     std::lock_guard<std::mutex> olock(impl_->odometry_mutex);
     r.wheel_calibration = impl_->calibration.c;

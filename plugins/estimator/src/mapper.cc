@@ -76,20 +76,31 @@ void Estimator::Impl::applyLabels(bool wait) {
   }
   for (auto& [id, t, image] : todo) {
     std::optional<Segmentation> seg;
+    std::string failure;
     auto t0 = Clock::now();
     if (!async) {
       try {
         seg = segmenter->segment(image, FrameInfo{id, t});
-      } catch (const std::exception&) {
+      } catch (const std::exception& e) {
+        failure = e.what();
       }
     } else {
+      // (Its failures are counted by the runner: report().)
       seg = wait ? async->waitFor(id, std::chrono::milliseconds(2000)) : async->take(id);
       // Still to come; dropped or failed ones never will: the keyframe is done with (its points
       // trusted, as unlabelled ones are).
       if (!seg && !wait && async->pending(id)) continue;
     }
     if (!async) timings.add("segmentation", msSince(t0));
+    // Labels of another size than the image they label would be looked up at the wrong pixels.
+    if (seg && seg->labels.size() != image.size()) {
+      failure = "label image " + std::to_string(seg->labels.cols) + "x" + std::to_string(seg->labels.rows) +
+                " for a camera image " + std::to_string(image.cols) + "x" + std::to_string(image.rows);
+      seg.reset();
+    }
     std::lock_guard<std::mutex> lock(map_mutex);
+    if (!failure.empty() && counters.segmentation_failures++ == 0)
+      counters.segmentation_error = "keyframe at t = " + std::to_string(t) + ": " + failure;
     auto it = keyframes.find(id);
     if (it == keyframes.end()) continue;
     KeyFrame& kf = it->second;
