@@ -23,7 +23,7 @@ ORT_DEB_VERSION=1.21.0+dfsg-1
 G2OPY_VERSION=2.3.0
 DEBIAN_PACKAGES=(build-essential cmake ninja-build pkg-config git python3 python3-pip
   libeigen3-dev libopencv-dev libmrpt-dev libceres-dev libsuitesparse-dev
-  libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev zlib1g-dev clang-format)
+  libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev zlib1g-dev clang-format clang libclang-rt-14-dev)
 
 mkdir -p "$DEPS"
 : >"$LOG"

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs RVWO's whole test suite from a fresh clone: set-up (scripts/setup.sh), a RelWithDebInfo
 # build in build/, ctest; then the sanitizer builds: ASan + UBSan over the suite in build-asan/,
-# ThreadSanitizer over the threaded tests in build-tsan/. RVWO_SANITIZERS=0 skips the latter two.
+# ThreadSanitizer over the threaded tests in build-tsan/ (RVWO_SANITIZERS=0 skips those two); then
+# the readers fuzzed with libFuzzer in build-fuzz/ (scripts/fuzz.sh; RVWO_FUZZ_SECONDS=0 skips it).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
@@ -36,5 +37,9 @@ if [ "${RVWO_SANITIZERS:-1}" != 0 ]; then
   cmake --build build-tsan --target kernels_test semantics_test estimator_test orbslam3_local_map_test
   stamp "threaded tests under ThreadSanitizer"
   TSAN_OPTIONS=halt_on_error=1 ctest --test-dir build-tsan --output-on-failure -R 'ReliabilityManager|AsyncSegmenter|Estimator\.Threaded|WheelInputLocalMap\.ConcurrentWithTracking'
+fi
+if [ "${RVWO_FUZZ_SECONDS:-60}" != 0 ]; then
+  stamp "fuzzing the readers (build-fuzz/, ${RVWO_FUZZ_SECONDS:-60} s each)"
+  bash scripts/fuzz.sh
 fi
 stamp "all tests passed"
