@@ -25,7 +25,7 @@ class OrbSlam3Backend {
  public:
   // settings: the sequence's, whose Odometry.Noise*, Odometry.Calibrate*, Reliability.*, Semantics.*,
   // Tracking.* (over the plugin's defaults), Initializer.*, LocalMapping.*, LoopClosing.* and
-  // ORBextractor.AlignedPyramid keys go on to ORB-SLAM3 (and Estimator.LabelDilation as Segmentation.LabelDilation).
+  // ORBextractor.AlignedPyramid keys go on to ORB-SLAM3 (and the label dilation, Segmentation.LabelDilation).
   // segmenter: the keyframes' (with the wheels; none: reliabilities from reprojection errors alone).
   OrbSlam3Backend(const estimator::Rig& rig, const estimator::EstimatorOptions& opt, bool wheels,
                   const Settings& settings, const std::string& vocabulary, const std::string& out,

@@ -317,6 +317,15 @@ TEST(Options, FromSettings) {
       readEstimatorOptions(rvwo::Settings::fromString(std::string(kSettings) + "Tracking.WheelGate: 0\n", "s.yaml"))
           .tracking.wheel_gate);
   EXPECT_DOUBLE_EQ(o.reliability.p_h, 0.8);
+  // The label dilation under the ORB-SLAM3 plugin's key, and under the estimator's old one.
+  EXPECT_EQ(readEstimatorOptions(
+                rvwo::Settings::fromString(std::string(kSettings) + "Segmentation.LabelDilation: 3\n", "s.yaml"))
+                .label_dilation_px,
+            3);
+  EXPECT_EQ(readEstimatorOptions(
+                rvwo::Settings::fromString(std::string(kSettings) + "Estimator.LabelDilation: 5\n", "old.yaml"))
+                .label_dilation_px,
+            5);
 }
 
 TEST(Options, ErrorsNameTheKey) {
@@ -351,6 +360,11 @@ TEST(Options, ErrorsNameTheKey) {
   EXPECT_NE(message(with("TrustedMaxPs: 0.2", "TrustedMaxPs: 0")).find("Tracking.TrustedMaxPs"), std::string::npos);
   EXPECT_NE(message(y + "Estimator.MonoMaxMappingLag: -0.1\n").find("Estimator.MonoMaxMappingLag: >= 0"),
             std::string::npos);
+  EXPECT_EQ(message(y + "Segmentation.LabelDilation: 2.5\n"),
+            "s.yaml: Segmentation.LabelDilation must be a whole number of pixels, 0 to 100");
+  EXPECT_EQ(message(y + "Segmentation.LabelDilation: 3\nEstimator.LabelDilation: 3\n"),
+            "s.yaml: Segmentation.LabelDilation and its old name Estimator.LabelDilation are both given; keep "
+            "Segmentation.LabelDilation");
 }
 
 // Fisheye stereo (ORB-SLAM3's KannalaBrandt8 pair, the right camera turned a little): the

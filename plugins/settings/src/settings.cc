@@ -213,75 +213,47 @@ DiffDriveParams readDiffDrive(const Settings& s, DiffDriveParams d) {
   return d;
 }
 
-namespace {
-
-// Tracking.* keys and the names the estimator read them by before (docs/estimator.md).
-struct TrackingKey {
-  const char* key;
-  const char* old_key;
-};
-constexpr TrackingKey kTrackingKeys[] = {
-    {"Tracking.MinInliers", "Estimator.MinInliers"},
-    {"Tracking.SlipMinInliers", "Estimator.SlipMinInliers"},
-    {"Tracking.SlipHold", "Estimator.SlipHold"},
-    {"Tracking.SlipHoldMinFrames", "Estimator.SlipHoldMinFrames"},
-    {"Tracking.TrustedMaxPs", "Estimator.TrustedMaxPs"},
-    {"Tracking.SlipCheck", nullptr},
-    {"Tracking.WheelGate", "Estimator.WheelGate"},
-    {"Tracking.BarronScale", "Estimator.BarronScale"},
-    {"Tracking.SigmaZ", "Estimator.SigmaZ"},
-    {"Tracking.SigmaRollPitch", "Estimator.SigmaRollPitch"},
-};
-
-// The value under the key, or under its old name with a one-line warning (once per file and key);
-// both given is an error (which one was meant?).
-std::optional<double> trackingNumber(const Settings& s, const TrackingKey& k, std::ostream& warnings) {
-  const std::optional<double> v = s.number(k.key);
-  if (!k.old_key || !s.has(k.old_key)) return v;
+std::optional<double> renamedNumber(const Settings& s, const std::string& key, const std::string& old_key,
+                                    std::ostream* warnings) {
+  const std::optional<double> v = s.number(key);
+  if (old_key.empty() || !s.has(old_key)) return v;
   if (v)
-    throw std::invalid_argument(s.path() + ": " + k.key + " and its old name " + k.old_key + " are both given; keep " +
-                                k.key);
+    throw std::invalid_argument(s.path() + ": " + key + " and its old name " + old_key + " are both given; keep " +
+                                key);
   static std::mutex mutex;
   static std::set<std::string> warned;
   std::lock_guard<std::mutex> lock(mutex);
-  if (warned.insert(s.path() + "\n" + k.old_key).second)
-    warnings << s.path() << ": " << k.old_key << " is now " << k.key
-             << " (read under its old name for now; rename it)\n";
-  return s.number(k.old_key);
+  if (warned.insert(s.path() + "\n" + old_key).second)
+    (warnings ? *warnings : std::cerr) << s.path() << ": " << old_key << " is now " << key
+                                       << " (read under its old name for now; rename it)\n";
+  return s.number(old_key);
 }
 
-}  // namespace
-
 TrackingOptions readTrackingOptions(const Settings& s, TrackingOptions o, std::ostream* warnings) {
-  std::ostream& w = warnings ? *warnings : std::cerr;
-  const auto value = [&](const char* key) {
-    for (const TrackingKey& k : kTrackingKeys)
-      if (std::string(k.key) == key) return trackingNumber(s, k, w);
-    throw std::logic_error(std::string("readTrackingOptions: no key ") + key);
-  };
-  const auto whole = [&](const char* key, int* member) {
-    if (const auto v = value(key)) {
+  // Each key with the name the estimator read it by before ("": none).
+  const auto whole = [&](const char* key, const char* old_key, int* member) {
+    if (const auto v = renamedNumber(s, key, old_key, warnings)) {
       if (!(*v == std::floor(*v) && std::fabs(*v) < 1e9))
         throw std::invalid_argument(s.path() + ": " + key + " must be a whole number");
       *member = static_cast<int>(*v);
     }
   };
-  const auto real = [&](const char* key, double* member) {
-    if (const auto v = value(key)) *member = *v;
+  const auto real = [&](const char* key, const char* old_key, double* member) {
+    if (const auto v = renamedNumber(s, key, old_key, warnings)) *member = *v;
   };
-  const auto flag = [&](const char* key, bool* member) {
-    if (const auto v = value(key)) *member = *v != 0;
+  const auto flag = [&](const char* key, const char* old_key, bool* member) {
+    if (const auto v = renamedNumber(s, key, old_key, warnings)) *member = *v != 0;
   };
-  whole("Tracking.MinInliers", &o.min_inliers);
-  real("Tracking.SlipMinInliers", &o.slip_min_inliers);
-  real("Tracking.SlipHold", &o.slip_hold);
-  whole("Tracking.SlipHoldMinFrames", &o.slip_hold_min_frames);
-  real("Tracking.TrustedMaxPs", &o.trusted_max_ps);
-  flag("Tracking.SlipCheck", &o.slip_check);
-  flag("Tracking.WheelGate", &o.wheel_gate);
-  real("Tracking.BarronScale", &o.barron_scale);
-  real("Tracking.SigmaZ", &o.sigma_z);
-  real("Tracking.SigmaRollPitch", &o.sigma_rollpitch);
+  whole("Tracking.MinInliers", "Estimator.MinInliers", &o.min_inliers);
+  real("Tracking.SlipMinInliers", "Estimator.SlipMinInliers", &o.slip_min_inliers);
+  real("Tracking.SlipHold", "Estimator.SlipHold", &o.slip_hold);
+  whole("Tracking.SlipHoldMinFrames", "Estimator.SlipHoldMinFrames", &o.slip_hold_min_frames);
+  real("Tracking.TrustedMaxPs", "Estimator.TrustedMaxPs", &o.trusted_max_ps);
+  flag("Tracking.SlipCheck", "", &o.slip_check);
+  flag("Tracking.WheelGate", "Estimator.WheelGate", &o.wheel_gate);
+  real("Tracking.BarronScale", "Estimator.BarronScale", &o.barron_scale);
+  real("Tracking.SigmaZ", "Estimator.SigmaZ", &o.sigma_z);
+  real("Tracking.SigmaRollPitch", "Estimator.SigmaRollPitch", &o.sigma_rollpitch);
   try {
     o.validate();
   } catch (const std::invalid_argument& e) {

@@ -113,7 +113,8 @@ struct EstimatorOptions {
   double calibration_period = 0.5;                        // s: keyframes come about this often where nothing moves
   ReliabilityParams reliability;
   SemanticPriors priors = SemanticPriors::builtin("voc21");
-  int label_dilation_px = 8;  // widen dynamic classes' masks by this much (their edges are the least sure)
+  int label_dilation_px =
+      8;  // px: dynamic classes' masks widened, their edges the least sure (Segmentation.LabelDilation)
 
   // Throws std::invalid_argument naming the setting of the first inconsistent value.
   void validate() const;

@@ -69,6 +69,11 @@ SemanticPriors readSemanticPriors(const Settings& s);
 Eigen::Isometry3d readIsometry(const Settings& s, const std::string& key, bool required);
 // Odometry.WheelRadiusLeft, Odometry.WheelRadiusRight, Odometry.Track (m), validated.
 DiffDriveParams readDiffDrive(const Settings& s, DiffDriveParams defaults = {});
+// The number under key, or under old_key (its name before a rename; "" for none) with one line
+// to *warnings (std::cerr when null) once per file and key; both given is std::invalid_argument
+// naming them.
+std::optional<double> renamedNumber(const Settings& s, const std::string& key, const std::string& old_key,
+                                    std::ostream* warnings = nullptr);
 // Tracking.* over the host's defaults, validated. A key the estimator used to read under another
 // name (Estimator.MinInliers, ...) is still read under it, with one line to *warnings (std::cerr
 // when null) once per file and key; both names given is std::invalid_argument naming them.
