@@ -30,9 +30,9 @@
 // Bad records (odometry going backwards or NaN, an image of the wrong size or missing) are
 // skipped with a line on stderr; a truncated or corrupt rawlog stops the replay there: what was
 // estimated so far is written, and the exit status is 1. The settings, --gt, the rawlog's gz
-// stream (its CRC), the sensors it holds and the output paths are checked before the replay starts; SIGINT, SIGTERM or
-// SIGHUP stop it at the frame it is on, with what it has written (exit 130, 143, 129). Files are
-// written whole or not at all (support/output.h).
+// stream (its CRC), the sensors it holds and the output paths are checked before the replay
+// starts; SIGINT, SIGTERM or SIGHUP stop it at the frame it is on, with what it has written (exit
+// 130, 143, 129). Files are written whole or not at all (support/output.h).
 #include <glog/logging.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -133,6 +133,7 @@ class ReplayApp {
     FLAGS_minloglevel = 2;
     configure();
     checkPaths();
+    checkStream();
     surveyRawlog();
     makeSegmenter();
     makeBackend();
@@ -240,7 +241,6 @@ class ReplayApp {
     const bool wheels = opt_.mode != rvwo::estimator::Mode::kVo;
     std::vector<std::string> needed{camera_label_};
     if (wheels) needed.push_back(odometry_label_);
-    checkStream();
     const rvwo::apps::RawlogSurvey survey = rvwo::apps::surveyRawlog(req().rawlog, needed);
     if (!survey.whole) return;  // all seen, or damaged before: the replay reports it where it comes
     const std::string& rawlog = req().rawlog;
@@ -406,7 +406,6 @@ class ReplayApp {
     if (orbslam3_) orbslam3_->flush(orbslam3Progress());
 #endif
     read_error_ = reader.error();
-    records_ = reader.records();
   }
 
   // One record to the backend (a frame is held until the next record: flush).
@@ -463,7 +462,6 @@ class ReplayApp {
   void checkWhatWasRead() const {
     const std::string& rawlog = req().rawlog;
     if (frames_ == 0 && !read_error_.empty()) throw std::runtime_error(read_error_);  // (not a rawlog, or cut short)
-    if (frames_ == 0 && records_ == 0) throw std::runtime_error(rawlog + ": no records (an empty rawlog)");
     if (frames_ == 0 && skipped_ > 0)
       throw std::runtime_error(rawlog + ": no camera frame could be used (" + std::to_string(skipped_) +
                                " records skipped; the first: " + first_skip_ + ")");
@@ -674,7 +672,7 @@ class ReplayApp {
   std::chrono::steady_clock::time_point t_start_ = std::chrono::steady_clock::now();
   double first_t_ = NAN, last_t_ = NAN, last_progress_ = -1, wall_ = 0;
   double q_left0_ = NAN, q_right0_ = NAN;  // the first encoder ticks: wheel angles count from them
-  std::size_t frames_ = 0, odometry_count_ = 0, odometry_used_ = 0, skipped_ = 0, records_ = 0;
+  std::size_t frames_ = 0, odometry_count_ = 0, odometry_used_ = 0, skipped_ = 0;
   std::string first_skip_, read_error_;
   std::optional<FrameInput> held_;
   // What it produced.

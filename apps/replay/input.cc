@@ -115,11 +115,6 @@ std::string Prefetcher::error() const {
   return error_;
 }
 
-std::size_t Prefetcher::records() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return done_ ? reader_.count() : 0;
-}
-
 void Prefetcher::push(ReplayEvent e) {
   std::unique_lock<std::mutex> lock(mutex_);
   cv_.wait(lock, [&] { return queue_.size() < 64 || stop_; });

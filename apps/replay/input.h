@@ -89,8 +89,6 @@ class Prefetcher {
   // The next event, or nullopt at the end (error() then says whether the file ended badly).
   std::optional<ReplayEvent> next();
   std::string error() const;
-  // Records read (after the reading thread is done).
-  std::size_t records() const;
 
  private:
   void push(ReplayEvent e);

@@ -25,9 +25,10 @@ int sensorOf(const ReplayEvent& e, double* t) {
   return -1;
 }
 
-std::string format(const char* pattern, double a, double b, double c) {
+template <typename... Number>
+std::string format(const char* pattern, Number... n) {
   char s[200];
-  std::snprintf(s, sizeof s, pattern, a, b, c);
+  std::snprintf(s, sizeof s, pattern, n...);
   return s;
 }
 
@@ -76,7 +77,7 @@ SkippedRecord RecordClock::refuted(const ReplayEvent& held, double t_held, doubl
   double t = NAN;
   const char* what = sensorOf(held, &t) == 0 ? "frame" : "odometry";
   return {std::string(what) + " at t = " + std::to_string(t_held) + ": its time jumps " +
-          format("%.3g", t_held - last, 0, 0) + " s ahead of the records before it " + why +
+          format("%.3g", t_held - last) + " s ahead of the records before it " + why +
           " (a corrupt time; Rawlog.MaxGap is the largest pause believed without a record after it)"};
 }
 

@@ -44,10 +44,9 @@ class RecordClock {
 
 // A wheeled robot's limits (settings keys beside each; docs/decisions/0012 for the defaults).
 struct OdometryLimits {
-  double max_speed = 10.0;      // m/s, of either wheel or the body (Odometry.MaxSpeed)
-  double max_turn_rate = 10.0;  // rad/s (Odometry.MaxTurnRate)
-  double max_acceleration =
-      0.0;  // m/s^2, between consecutive readings' speeds; 0: not checked (Odometry.MaxAcceleration)
+  double max_speed = 10.0;        // m/s, of either wheel or the body (Odometry.MaxSpeed)
+  double max_turn_rate = 10.0;    // rad/s (Odometry.MaxTurnRate)
+  double max_acceleration = 0.0;  // m/s^2, between readings' speeds; 0: not checked (Odometry.MaxAcceleration)
 };
 // Throws std::invalid_argument naming the key of a limit out of range (speed and turn rate above
 // 0, acceleration 0 or above).

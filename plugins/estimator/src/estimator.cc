@@ -143,8 +143,8 @@ Report Estimator::report() const {
   r.keyframes = impl_->next_kf;
   r.slip_frames = impl_->slip_frames;
   r.wheel_edge_outliers = impl_->wheel_outliers;
-  if (impl_->async && impl_->async->stats().failed > 0) {
-    r.segmentation_failures += impl_->async->stats().failed;
+  if (const std::uint64_t failed = impl_->async ? impl_->async->stats().failed : 0) {
+    r.segmentation_failures += failed;
     if (r.segmentation_error.empty()) r.segmentation_error = "a keyframe: " + impl_->async->lastError();
   }
   {

@@ -357,6 +357,7 @@ struct Estimator::Impl {
   FrameEvidence frameEvidence(const FrameWork& w);
   // A slip frame: counted and marked for local BA (a spin's wheel edge sits out its first round).
   void recordSlip(double t, bool spin);
+  void markSlip(double t, bool spin);
 
   // Still blind after a stretch on the wheels: their prediction may be too far off for the
   // projection search, the map in memory may still be in view. Only trusted landmarks place the

@@ -132,12 +132,7 @@ EstimatorOptions readEstimatorOptions(const Settings& s, EstimatorOptions o) {
   num("Estimator.KeepKeyFrames", &o.keep_keyframes);
   num("Estimator.MonoMaxMappingLag", &o.mono_max_mapping_lag);
   num("Estimator.SigmaPx", &o.sigma_px);
-  // One key with the ORB-SLAM3 plugin's (Estimator.LabelDilation before).
-  if (const auto v = renamedNumber(s, "Segmentation.LabelDilation", "Estimator.LabelDilation")) {
-    if (!(*v == std::floor(*v) && *v >= 0 && *v <= 100))
-      throw std::invalid_argument(s.path() + ": Segmentation.LabelDilation must be a whole number of pixels, 0 to 100");
-    o.label_dilation_px = static_cast<int>(*v);
-  }
+  o.label_dilation_px = readLabelDilation(s, o.label_dilation_px, "Estimator.LabelDilation");
   o.tracking = readTrackingOptions(s, o.tracking);
   o.wheel_noise = readWheelNoise(s, o.wheel_noise);
   o.drive = readDiffDrive(s, o.drive);

@@ -257,6 +257,10 @@ ArbiterOptions Estimator::Impl::arbiterOptions(const Rig& r, const EstimatorOpti
 
 void Estimator::Impl::recordSlip(double t, bool spin) {
   ++slip_frames;
+  markSlip(t, spin);
+}
+
+void Estimator::Impl::markSlip(double t, bool spin) {
   std::lock_guard<std::mutex> slock(slip_mutex);
   slip_marks.push_back({t, spin});
 }
@@ -285,9 +289,7 @@ void Estimator::Impl::settleFrame(FrameWork* w) {
   // Held still while the wheels went on, as far as the map knows: a spin, whose wheel edge sits
   // out local BA's first round and comes back in the second only if vision's keyframes agree
   // with it (docs/decisions/0003).
-  if (!o.held) return;
-  std::lock_guard<std::mutex> slock(slip_mutex);
-  slip_marks.push_back({w->t, true});
+  if (o.held) markSlip(w->t, true);
 }
 
 bool Estimator::Impl::keepFrame(FrameWork* w, FrameRecord* record) {

@@ -56,11 +56,7 @@ void WheelInput::configure(const std::string& settings_path) {
   // Mono: vision has no scale of its own (the map's is the wheels'), so it cannot tell the wheels'.
   p.calibrate_distance = s.number("Odometry.CalibrateDistance").value_or(p.map_from_depth ? 1.0 : 0.0) != 0.0;
   if (!(p.max_wheel_span > 0)) throw std::invalid_argument(settings_path + ": LocalMapping.MaxWheelSpan must be > 0 s");
-  const double dilation = s.number("Segmentation.LabelDilation").value_or(p.label_dilation_px);
-  if (!(dilation >= 0 && dilation <= 100 && dilation == std::floor(dilation)))
-    throw std::invalid_argument(settings_path +
-                                ": Segmentation.LabelDilation must be a whole number of pixels, 0 to 100");
-  p.label_dilation_px = static_cast<int>(dilation);
+  p.label_dilation_px = readLabelDilation(s, p.label_dilation_px);
   try {
     impl_ = std::make_unique<Impl>(p, readWheelNoise(s), readReliability(s), readSemanticPriors(s));
   } catch (const std::invalid_argument& e) {

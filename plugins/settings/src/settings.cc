@@ -272,6 +272,14 @@ void writeTrackingOptions(std::ostream& out, const TrackingOptions& o) {
   out.precision(precision);
 }
 
+int readLabelDilation(const Settings& s, int defaults, const std::string& old_key) {
+  const std::optional<double> v = renamedNumber(s, "Segmentation.LabelDilation", old_key);
+  if (!v) return defaults;
+  if (!(*v == std::floor(*v) && *v >= 0 && *v <= 100))
+    throw std::invalid_argument(s.path() + ": Segmentation.LabelDilation must be a whole number of pixels, 0 to 100");
+  return static_cast<int>(*v);
+}
+
 SemanticPriors readSemanticPriors(const Settings& s) {
   const std::string set = s.text("Semantics.LabelSet").value_or("voc21");
   SemanticPriors priors = [&] {

@@ -58,9 +58,8 @@ struct Report {
   std::vector<std::pair<double, double>> wheel_only_intervals;  // [t0, t1] s, frames on wheels only
   std::size_t map_points_created = 0, map_points_rejected = 0;  // rejected: alpha = -inf when they left the map
   std::size_t segmented_keyframes = 0;
-  std::size_t segmentation_failures =
-      0;                                // keyframes whose labels could not be used (the segmenter failed, a wrong size)
-  std::string segmentation_error;       // the first such failure, in words
+  std::size_t segmentation_failures = 0;  // keyframes whose labels could not be used (segmenter failed, wrong size)
+  std::string segmentation_error;         // the first such failure, in words
   std::size_t slip_frames = 0;          // frames where vision alone explained clearly more than vision with the wheels
   std::size_t wheel_edge_outliers = 0;  // wheel edges local BA found contradicted by vision (slips, skids)
   std::size_t relocalisations = 0;      // blind frames placed on the map by descriptor matching

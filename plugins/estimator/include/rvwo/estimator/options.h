@@ -113,8 +113,7 @@ struct EstimatorOptions {
   double calibration_period = 0.5;                        // s: keyframes come about this often where nothing moves
   ReliabilityParams reliability;
   SemanticPriors priors = SemanticPriors::builtin("voc21");
-  int label_dilation_px =
-      8;  // px: dynamic classes' masks widened, their edges the least sure (Segmentation.LabelDilation)
+  int label_dilation_px = 8;  // px: dynamic classes' masks widened, edges least sure (Segmentation.LabelDilation)
 
   // Throws std::invalid_argument naming the setting of the first inconsistent value.
   void validate() const;

@@ -64,6 +64,9 @@ class Settings {
 ReliabilityParams readReliability(const Settings& s, ReliabilityParams defaults = {});
 WheelNoise readWheelNoise(const Settings& s, WheelNoise defaults = {});
 SemanticPriors readSemanticPriors(const Settings& s);
+// Segmentation.LabelDilation (px, a whole number 0 to 100) over the default; old_key: a name it was
+// read by before (renamedNumber).
+int readLabelDilation(const Settings& s, int defaults, const std::string& old_key = "");
 // A 4x4 rigid transform (e.g. Camera.T_b_c). Absent: identity, or std::invalid_argument
 // "<path>: missing key <key>" when required; not a rotation and translation: std::invalid_argument.
 Eigen::Isometry3d readIsometry(const Settings& s, const std::string& key, bool required);
