@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Fuzzes RVWO's readers (tests/fuzz: rawlog, settings, trajectory) with libFuzzer under ASan and
-# UBSan: a clang build in build-fuzz/, then each target for RVWO_FUZZ_SECONDS (60) from its
-# regression corpus (tests/fuzz/regressions/<target>/) and seeds the simulator makes (build/'s
-# rvwo-sim, when built). Prints the runs per target; exits 1 on a crash, whose input is kept in
-# build-fuzz/crashes/<target>/ (once fixed, add it to the regression corpus).
+# UBSan: a clang build of the fuzz targets in build-fuzz/, then each target for RVWO_FUZZ_SECONDS
+# (60) from its regression corpus (tests/fuzz/regressions/<target>/) and seeds the simulator makes
+# (build/'s rvwo-sim, when built). Prints the runs per target; exits 1 on a crash, whose input is
+# kept in build-fuzz/crashes/<target>/ (once fixed, add it to the regression corpus).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
@@ -22,6 +22,7 @@ fi
 status=0
 for target in rawlog settings trajectory; do
   corpus="$OUT/corpus/$target" crashes="$OUT/crashes/$target"
+  rm -rf "$crashes"
   mkdir -p "$corpus" "$crashes"
   cp tests/fuzz/regressions/$target/* "$corpus/"
   case $target in
@@ -31,8 +32,9 @@ for target in rawlog settings trajectory; do
   esac
   log="$OUT/fuzz_$target.log"
   # Fork mode goes on past an input that asks for more memory than the limit: MRPT 2.5 allocates a
-  # string's length, read from the file, before reading the string (docs/rawlog.md). Such inputs are
-  # kept, and below each must be that one known case; any other failure is a finding.
+  # length read from the file (a string's, a vector's) before reading what it counts (docs/rawlog.md).
+  # Such inputs are kept, and below each must be that known case, allocated in MRPT's readers; any
+  # other failure is a finding.
   # MRPT and OpenCV keep allocations for the process's life: leaks are not what is looked for here.
   ASAN_OPTIONS=detect_leaks=0:quarantine_size_mb=16 "$OUT/tests/fuzz/fuzz_$target" -fork=1 -ignore_ooms=1 \
     -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=512 \
@@ -43,15 +45,19 @@ for target in rawlog settings trajectory; do
     [ -e "$input" ] || continue
     trace=$(ASAN_OPTIONS=detect_leaks=0 "$OUT/tests/fuzz/fuzz_$target" -malloc_limit_mb=512 -rss_limit_mb=2048 \
       "$input" 2>&1 || true)
-    if [[ $(basename "$input") == oom-* && $trace == *'mrpt::serialization::operator>>(mrpt::serialization::CArchive&, std::__cxx11::basic_string'* ]]; then
+    if [[ $(basename "$input") == oom-* && $trace == *'mrpt::serialization::'* ]]; then
       known=$((known + 1))
       rm "$input"
     else
       found=$((found + 1))
+      # What CI's log needs to tell the finding: its kind, where, and the seed to fuzz it again.
+      echo "fuzz: $target: $(basename "$input"): $(grep -m1 '^SUMMARY' <<<"$trace" || echo 'no sanitizer summary')"
+      grep -m4 -E '^ +#[0-9]+ ' <<<"$trace" | sed 's/^ */fuzz:     /' || true
     fi
   done
-  echo "fuzz: $target: ${runs:-?} runs in $SECONDS_EACH s, corpus $(ls "$corpus" | wc -l) inputs," \
-    "$known over the memory limit in MRPT's string reader (known), $found other failures"
+  seed=$(grep -m1 -o 'Seed: [0-9]*' "$log" | tr -dc 0-9)
+  echo "fuzz: $target: ${runs:-?} runs in $SECONDS_EACH s (-seed=${seed:-?}), corpus $(ls "$corpus" | wc -l) inputs," \
+    "$known over the memory limit in MRPT's readers (known), $found other failures"
   if [ "$found" -gt 0 ]; then
     status=1
     echo "fuzz: $target: the failing inputs are in $crashes/ (the log: $log)"

@@ -87,6 +87,23 @@ TEST(Settings, SyntaxErrorsAndKeysGivenTwiceNameTheirLines) {
   fs::remove(bad);
 }
 
+// A matrix of the wrong shape is refused before OpenCV reads it: OpenCV allocates the rows and
+// columns the file states (a damaged "cols: N" once asked for 64 GB; fuzzing found it).
+TEST(Settings, MatrixOfAnotherShapeIsRefusedBeforeItIsRead) {
+  const auto matrix = [](const std::string& rows, const std::string& cols, const std::string& data) {
+    return Settings::fromString("%YAML:1.0\nM: !!opencv-matrix\n  rows: " + rows + "\n  cols: " + cols +
+                                    "\n  dt: d\n  data: [" + data + "]\n",
+                                "m.yaml")
+        .matrix("M", 2, 2);
+  };
+  EXPECT_EQ(*matrix("2", "2", "1, 2, 3, 4"), (std::vector<double>{1, 2, 3, 4}));
+  const std::string wrong = "m.yaml: M must be a 2x2 !!opencv-matrix";
+  expectError([&] { matrix("4", "N", "1, 2, 3, 4"); }, wrong);  // 4 x 2^31 doubles (under ASan, an abort)
+  expectError([&] { matrix("1", "4", "1, 2, 3, 4"); }, wrong);
+  expectError([&] { matrix("2", "2", "1, 2, 3"); }, wrong);
+  expectError([] { Settings::fromString("%YAML:1.0\nM: [1, 2, 3, 4]\n", "m.yaml").matrix("M", 2, 2); }, wrong);
+}
+
 TEST(Settings, SemanticPriorsFromYamlAndAUserFile) {
   const fs::path dir = rvwo::test::scratch("rvwo_settings_test");
   fs::create_directories(dir);

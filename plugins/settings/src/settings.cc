@@ -127,15 +127,19 @@ double Settings::requireNumber(const std::string& key) const {
 std::optional<std::vector<double>> Settings::matrix(const std::string& key, int rows, int cols) const {
   const cv::FileNode n = impl_->fs[key];
   if (n.empty() || n.isNone()) return std::nullopt;
+  const std::string wrong =
+      path_ + ": " + key + " must be a " + std::to_string(rows) + "x" + std::to_string(cols) + " !!opencv-matrix";
+  // The shape is checked before OpenCV reads the matrix: it allocates rows x cols as the file says.
+  if (!n.isMap() || !n["rows"].isInt() || !n["cols"].isInt() || static_cast<int>(n["rows"]) != rows ||
+      static_cast<int>(n["cols"]) != cols)
+    throw std::invalid_argument(wrong);
   cv::Mat m;
   try {
     n >> m;
   } catch (const cv::Exception&) {
     m.release();
   }
-  if (m.empty() || m.rows != rows || m.cols != cols || m.channels() != 1)
-    throw std::invalid_argument(path_ + ": " + key + " must be a " + std::to_string(rows) + "x" + std::to_string(cols) +
-                                " !!opencv-matrix");
+  if (m.empty() || m.rows != rows || m.cols != cols || m.channels() != 1) throw std::invalid_argument(wrong);
   m.convertTo(m, CV_64F);
   std::vector<double> out(m.begin<double>(), m.end<double>());
   for (double v : out) {
