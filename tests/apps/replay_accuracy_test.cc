@@ -1,0 +1,371 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// The accuracy relations of the estimator issue, rvwo-replay end to end on simulated sequences of
+// the scenario suite (ctest label long): vw within 0.5 % of the path, vw beats the wheels (by half
+// under a slip, and through a blackout without a jump), the adaptive kernel beats Huber among
+// walkers and costs nothing where nothing moves. With RVWO_REPLAY_CUTS=short (scripts/test.sh
+// --ci) the tests that need minutes of video run a shorter cut or wait for the full run.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "replay_common.h"
+#include "support/trajectory.h"
+
+namespace rvwo::apps::test {
+namespace {
+
+// False under RVWO_REPLAY_CUTS=short: CI's run, where only the scenarios' short cuts are replayed.
+bool fullLength() {
+  const char* cuts = std::getenv("RVWO_REPLAY_CUTS");
+  return cuts == nullptr || std::string(cuts) != "short";
+}
+
+#define RVWO_FULL_LENGTH_ONLY() \
+  if (!fullLength()) GTEST_SKIP() << "minutes of simulated video: scripts/test.sh replays it in full"
+
+TEST(Replay, StaticEveryFrameAccurateAndAdaptiveCostsNothing) {
+  const fs::path dir = simulate("static", 15);
+  const std::size_t frames = lines(dir / "groundtruth.txt");
+  const Outcome wheel = replay(dir, "--mode wheel", "wheel");
+  const Outcome huber = replay(dir, "--kernel huber", "huber");
+  const Outcome adaptive = replay(dir, "--kernel adaptive", "adaptive");
+  for (const Outcome* r : {&wheel, &huber, &adaptive}) {
+    ASSERT_EQ(r->status, 0) << r->err;
+    EXPECT_EQ(r->poses, frames);  // every frame has a pose
+  }
+  show("static wheel", wheel);
+  show("static vw huber", huber);
+  show("static vw adaptive", adaptive);
+  EXPECT_LE(adaptive.ate, 0.005 * adaptive.path) << adaptive.out;
+  EXPECT_LE(adaptive.ate, 1.05 * huber.ate);
+  EXPECT_LT(adaptive.ate, wheel.ate);
+  // The wheels' calibration, refined by local BA, recovers the simulator's: radii 1 % over and
+  // under (a bend of (d_r - d_l) / b = -0.05 rad/m) and a track 2 % wide (turns x 0.98). The turn
+  // scale settles 0.5-1 % above the truth (this cut 0.985; the 90 s static scenario 0.988-0.990 with
+  // either stereo matcher, and 0.987 without the calibration's prior around 1): a known limit,
+  // within half the 2 % it corrects.
+  Calibration c;
+  ASSERT_TRUE(readCalibration(adaptive.out, &c)) << adaptive.out;
+  EXPECT_NEAR(c.curvature, -0.05, 0.005);
+  EXPECT_NEAR(c.turn, 0.98, 0.01);
+  EXPECT_NEAR(c.distance, 1.0, 0.01);
+  // Deterministic mode: the same input gives the same bytes.
+  replay(dir, "--kernel adaptive", "adaptive2");
+  EXPECT_EQ(slurp(dir / "adaptive.txt"), slurp(dir / "adaptive2.txt"));
+  // The report says what a user needs (and a PNG is written beside the trajectory).
+  EXPECT_NE(adaptive.out.find("ATE (se3)"), std::string::npos);
+  EXPECT_NE(adaptive.out.find("keyframes"), std::string::npos);
+  EXPECT_NE(adaptive.out.find("local BA"), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir / "adaptive.png"));
+  fs::remove_all(dir);
+}
+
+TEST(Replay, DynamicAdaptiveKernelBeatsHuber) {
+  // The issue's ratio and bound, summed over the 30 s cuts of seeds 1-3: on a single cut the two
+  // kernels' few millimetres are a draw (seed 1: adaptive 0.0042 m, Huber 0.0036; seed 2: 0.0023
+  // and 0.0088; seed 3: 0.0023 and 0.0056; summed 0.49). Before keypoints were placed on their
+  // content (placeOnTheirContent) the sums were 0.0086 and 0.0115 m: 0.75. (The cuts' hard part:
+  // at 8.6 s of seed 1 walkers fill 73 % of the view. Until vision counted only landmarks no
+  // label calls dynamic, their freshly mapped points kept tracking 'visual' and pulled the map
+  // 0.14 rad before three labels each rejected them: adaptive 1.16 %, Huber 1.80 %; now those
+  // frames follow the wheels.)
+  double sum_huber = 0, sum_adaptive = 0;
+  const int seeds = fullLength() ? 3 : 1;  // one cut's ratio is a draw: the short run checks its bounds
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const fs::path dir = simulate("dynamic", 30, "", seed);
+    const Outcome huber = replay(dir, "--kernel huber", "huber");
+    const Outcome adaptive = replay(dir, "--kernel adaptive", "adaptive");
+    ASSERT_EQ(huber.status, 0) << huber.err;
+    ASSERT_EQ(adaptive.status, 0) << adaptive.err;
+    EXPECT_EQ(adaptive.poses, lines(dir / "groundtruth.txt"));
+    show("dynamic s" + std::to_string(seed) + " vw huber", huber);
+    show("dynamic s" + std::to_string(seed) + " vw adaptive", adaptive);
+    sum_huber += huber.ate;
+    sum_adaptive += adaptive.ate;
+    EXPECT_LE(adaptive.ate, 0.005 * adaptive.path) << "seed " << seed;
+    // Walkers are no slip: vision alone, pulled by them, must not overrule the wheels (before the
+    // slip test asked how vision alone moved, it did so on 56 frames of the 90 s scenario, with
+    // steps of up to 35 cm).
+    for (const Outcome* r : {&huber, &adaptive}) {
+      EXPECT_FALSE(slipCaught(r->out)) << "seed " << seed << "\n" << r->out;
+      EXPECT_LE(r->max_step, 0.05) << "seed " << seed;
+    }
+    if (seed == 1) {
+      // Without labels (a network that misses the walkers) only the reprojection errors and the
+      // wheels stand against them. Vision alone, pulled by walkers, once overruled the wheels for
+      // 21 frames, a walker's step of 4-5 cm each, sideways or back: a 1-frame step of 0.25 m,
+      // 1.18 % of the path. Now 0.35 %, the largest step 8.3 cm (local BA bending the map, not a
+      // slip); this cut is the one of five where the wheel gate costs (below).
+      const Outcome blind = replay(dir, "--kernel adaptive --no-semantics", "no_labels");
+      ASSERT_EQ(blind.status, 0) << blind.err;
+      show("dynamic s1 vw adaptive, no labels", blind);
+      EXPECT_LE(blind.max_step, 0.12);
+      EXPECT_LE(blind.ate, 0.008 * blind.path);
+    }
+    fs::remove_all(dir);
+  }
+  if (seeds == 3) EXPECT_LE(sum_adaptive, 0.7 * sum_huber) << "adaptive " << sum_adaptive << ", huber " << sum_huber;
+}
+
+// Walkers no label marks drag the fused pose off the wheels a few millimetres and milliradians a
+// frame, each frame's wheel edge starting where the last one was dragged. The wheel gate
+// (Tracking.WheelGate) solves such a frame again from the wheels' prediction, first on the
+// landmarks it explains. This cut (seed 3) measured 0.0031 m (0.057 %) with it and 0.0221 m
+// (0.404 %) without; over five seeds' cuts 1.61 against 2.11 % summed, one of them worse
+// (seed 1, above).
+TEST(Replay, WalkersNoLabelMarksLoseToTheWheelGate) {
+  const fs::path dir = simulate("dynamic", 30, "", 3);
+  {
+    std::ofstream off(dir / "no_gate.yaml");
+    off << slurp(dir / "settings.yaml") << "\nTracking.WheelGate: 0\n";
+  }
+  const Outcome gated = replay(dir, "--no-semantics", "gated");
+  const Outcome plain = replay(dir, "--no-semantics", "plain", "no_gate.yaml");
+  ASSERT_EQ(gated.status, 0) << gated.err;
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  show("dynamic s3, no labels, gate", gated);
+  show("dynamic s3, no labels, none", plain);
+  EXPECT_EQ(gated.poses, lines(dir / "groundtruth.txt"));
+  EXPECT_LE(gated.ate, 0.5 * plain.ate);
+  EXPECT_LE(gated.ate, 0.002 * gated.path);
+  const std::string none = "placed by the landmarks the wheels explain: 0\n";
+  EXPECT_EQ(gated.out.find(none), std::string::npos) << gated.out;
+  EXPECT_NE(plain.out.find(none), std::string::npos) << plain.out;
+  fs::remove_all(dir);
+}
+
+TEST(Replay, SlipVisionHalvesTheWheelError) {
+  const fs::path dir = simulate("slip", 20);  // the wheels spin in place at 15-17 s
+  const Outcome wheel = replay(dir, "--mode wheel", "wheel");
+  const Outcome vw = replay(dir, "", "vw");
+  ASSERT_EQ(vw.status, 0) << vw.err;
+  show("slip wheel", wheel);
+  show("slip vw", vw);
+  // Measured 0.086 % of this cut's 4.2 m path, the wheels 2.8 % (the slip is 2 s of it).
+  EXPECT_LE(vw.ate, 0.3 * wheel.ate) << "vw " << vw.ate << ", wheel " << wheel.ate;
+  EXPECT_LE(vw.ate, 0.005 * vw.path);
+  // Tracking caught the slip (vision overruled the wheels on some frames).
+  EXPECT_TRUE(slipCaught(vw.out)) << vw.out;
+  fs::remove_all(dir);
+}
+
+// The combined scenario's first 40 s: walkers, a blackout, and the wheels spinning while the robot
+// stands (20-22 s) in the middle of a turn on the spot, so that the wheels claim a turn and no
+// travel. The wheels' calibration, refined by local BA, must not take the slip (nor the walkers)
+// for a scale error: before the BA judged slips with the calibration it had before (and kept it
+// fixed where the wheels disagree with the window), the turn scale went from 0.98 to 0.61 in a
+// sequence without walkers, and this cut ended at 0.80 % of its path (0.054 % after).
+TEST(Replay, SpinOnTheSpotSlipAndWalkersLeaveTheCalibration) {
+  const fs::path dir = simulate("combined", 40);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "combined 40 s vw", &vw));
+  EXPECT_LE(vw.ate, 0.003 * vw.path) << vw.out;
+  EXPECT_LE(vw.max_step, 0.05);
+  EXPECT_TRUE(slipCaught(vw.out)) << vw.out;
+  Calibration c;
+  ASSERT_TRUE(readCalibration(vw.out, &c)) << vw.out;
+  EXPECT_NEAR(c.turn, 0.98, 0.01);
+  EXPECT_NEAR(c.curvature, -0.05, 0.015);
+  EXPECT_NEAR(c.distance, 1.0, 0.01);
+  fs::remove_all(dir);
+}
+
+// The combined scenario cut to 24 s is another sequence (the simulator fits the motion file to the
+// duration): there the wheels spin through a turn on the spot at 20-22 s while a walker passes
+// close in front, covering up to 92 % of the view for a second. Blind right after a slip, the
+// pose holds still and no keyframe is made of what is in view; when the walker has
+// gone, the map is still there to track (or to relocalise against). Following the spinning
+// wheels there left 0.4-0.6 rad of yaw error (0.74 % of the path). The wheel edges across the
+// hold sit out local BA's first round: kept under Huber, they dragged the two keyframes made in
+// the slip 0.58 m along the spinning wheels, and the frames on them (2.4 %, once keypoints were
+// placed on their content).
+TEST(Replay, SlipWhileAWalkerCoversTheView) {
+  const fs::path dir = simulate("combined", 24);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "combined 24 s vw", &vw));
+  EXPECT_LE(vw.ate, 0.003 * vw.path) << vw.out;  // measured 0.085 %
+  EXPECT_LE(vw.max_step, 0.05);
+  EXPECT_TRUE(slipCaught(vw.out)) << vw.out;
+  fs::remove_all(dir);
+}
+
+// How far the estimate moved between t0 and t1 (m, in the plane): a slip's wheels claim travel
+// the robot does not make.
+double travel(const fs::path& traj, double t0, double t1) {
+  const Trajectory est = readTum(traj.string());
+  const StampedPose* a = nullptr;
+  const StampedPose* b = nullptr;
+  for (const StampedPose& p : est) {
+    if (!a && p.t >= t0) a = &p;
+    if (p.t <= t1) b = &p;
+  }
+  if (!a || !b) return 1e9;
+  return (b->T.translation() - a->T.translation()).head<2>().norm();
+}
+
+// The whole combined scenario with an RGB-D camera. At 60-62.5 s the wheels spin while the robot
+// stands, with walkers close in front: their new, close features asked for a keyframe every
+// frame, local BA's window of 8 keyframes spanned a quarter second, and the slip's wheel edges
+// dragged it along: 0.77 m of travel where there was none, 0.835 % of the path. No keyframe is
+// made for close, new features during a slip: 0.02 m, 0.22 %.
+TEST(Replay, SlipAmongCloseWalkersRgbdLeavesTheMapWhereItIs) {
+  RVWO_FULL_LENGTH_ONLY();
+  const fs::path dir = simulate("combined", 120, "--camera rgbd");
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "combined RGB-D vw", &vw));
+  EXPECT_LE(vw.ate, 0.005 * vw.path) << vw.out;
+  EXPECT_LE(travel(dir / "vw.txt", 60.1, 62.5), 0.05);
+  fs::remove_all(dir);
+}
+
+// The whole combined scenario with an RGB-D camera, seed 3: the same slip at 60-62.5 s behind
+// escorts, who leave 15-50 static landmarks. The fused pose followed the wheels' 1.4 cm a frame,
+// vision straining their edge, and the close rule made a keyframe on every frame at that pose:
+// the map moved with the wheels, vision alone then saw the robot drive as they claimed, and 0.98
+// m of travel where there was none stayed in the trajectory (1.81 % of the path). No keyframe is
+// made for close, new features while vision strains the wheel edge: 0.13 m, 0.16 %.
+TEST(Replay, SlipBehindEscortsRgbdMakesNoKeyframesOnTheWheelsWay) {
+  RVWO_FULL_LENGTH_ONLY();
+  const fs::path dir = simulate("combined", 120, "--camera rgbd", 3);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "combined RGB-D seed 3 vw", &vw));
+  EXPECT_LE(vw.ate, 0.005 * vw.path) << vw.out;
+  EXPECT_LE(travel(dir / "vw.txt", 60.1, 62.5), 0.25);
+  fs::remove_all(dir);
+}
+
+// The whole combined scenario, stereo, seed 3. At 60-62.5 s the wheels spin while the robot
+// stands, and tracking, on hundreds of trusted landmarks, catches the slip. Local BA's wheel edge
+// across it, under Huber from the first round, still dragged each new keyframe along the wheels'
+// claim where vision sees little (forward, on far points): 16 cm and 13 mrad at 60.3 s, again at
+// 60.7 s, and the frames after them with them (0.85 % of the path). The first round now goes
+// without an edge across a spin (the robot stood while the wheels went on), and the second has it
+// only if the keyframes agree with it: 0.10 %.
+TEST(Replay, SlipCaughtLeavesTheNewKeyframesWhereVisionPutThem) {
+  RVWO_FULL_LENGTH_ONLY();
+  const fs::path dir = simulate("combined", 120, "", 3);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "combined seed 3 vw", &vw));
+  EXPECT_TRUE(slipCaught(vw.out)) << vw.out;
+  EXPECT_LE(travel(dir / "vw.txt", 60.1, 62.4), 0.05);
+  EXPECT_LE(vw.ate, 0.003 * vw.path) << vw.out;
+  fs::remove_all(dir);
+}
+
+TEST(Replay, BlackoutWheelsCarryThePoseWithoutAJump) {
+  const fs::path dir = simulate("blackout", 27);  // lens covered at 20-24 s
+  const Outcome wheel = replay(dir, "--mode wheel", "wheel");
+  show("blackout wheel", wheel);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "blackout vw", &vw));
+  EXPECT_LE(vw.ate, wheel.ate);
+  EXPECT_LE(vw.ate, 0.005 * vw.path);  // the issue's bound; measured 0.04 % of this cut's 4.8 m path (4 s blind)
+  EXPECT_LE(vw.max_step, 0.05) << "a pose jump when vision returned";
+  // The report names the stretch on wheels only (the blackout, 20-24 s).
+  EXPECT_NE(vw.out.find("frames on wheels only: "), std::string::npos);
+  EXPECT_NE(vw.out.find("(20."), std::string::npos) << vw.out;
+  fs::remove_all(dir);
+}
+
+// The other cameras, on a 20 s cut of the static scenario. Mono: points triangulated between
+// keyframes that the wheels place, so the map has the wheels' scale (vision alone has none and is
+// refused in one line), pinhole and Kannala-Brandt fisheye. RGB-D, pinhole. Fisheye stereo (a raw
+// pair, the right camera turned a little): rectified on input. The short run takes mono and RGB-D.
+TEST(Replay, CamerasMonoAndFisheye) {
+  struct Case {
+    std::string camera, lens;
+    double bound;  // share of the path: the issue's 1 % for mono, 0.5 % for stereo
+  };
+  std::vector<Case> cases{
+      {"mono", "pinhole", 0.01}, {"rgbd", "pinhole", 0.005}, {"mono", "fisheye", 0.01}, {"stereo", "fisheye", 0.005}};
+  if (!fullLength()) cases.resize(2);
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.camera + " " + c.lens);
+    const fs::path scenario = staticScenario(c.camera + "_" + c.lens, "", c.camera, c.lens);
+    const fs::path dir = simulate(scenario.string(), 20);
+    const Outcome wheel = replay(dir, "--mode wheel", "wheel");
+    const Outcome vw = replay(dir, "", "vw");
+    ASSERT_EQ(vw.status, 0) << vw.err;
+    EXPECT_EQ(vw.poses, lines(dir / "groundtruth.txt"));
+    show(c.camera + " " + c.lens + " wheel", wheel);
+    show(c.camera + " " + c.lens + " vw", vw);
+    // Measured: mono 0.13 % (pinhole) and 0.05 % (fisheye), fisheye stereo 0.08 %; wheels 0.58 %.
+    EXPECT_LE(vw.ate, c.bound * vw.path) << vw.out;
+    EXPECT_LT(vw.ate, wheel.ate) << "vw " << vw.ate << ", wheel " << wheel.ate;
+    if (c.camera == "mono") {
+      // Mono has no metric but the wheels': their distance scale is not re-estimated (with it
+      // free, map and scale drifted together, to 0.976-0.994 over the 90 s mono suite), while
+      // the turn scale, an angle vision sees, is.
+      Calibration cal;
+      ASSERT_TRUE(readCalibration(vw.out, &cal)) << vw.out;
+      EXPECT_EQ(cal.distance, 1.0);
+      EXPECT_NE(cal.turn, 1.0);
+      const Outcome vo = replay(dir, "--mode vo", "vo");
+      EXPECT_EQ(vo.status, 1);
+      EXPECT_NE(vo.err.find("needs the wheels for its scale"), std::string::npos) << vo.err;
+    }
+    fs::remove_all(dir);
+  }
+}
+
+// Lens covered while the wheels spin (20-22 s, in a turn on the spot): the wheels carry the pose
+// 0.7 rad round while the robot stands. When vision returns the prediction is too far off for the
+// projection search; the frame is relocalised against the map in memory (descriptor matches, a
+// two-point SE(2) RANSAC) and the blind stretch bends onto it. Without relocalisation the map was
+// started anew 0.69 rad off: 0.77 % of the path (0.093 % with it).
+TEST(Replay, RelocalisesWhenTheWheelsSpunWhileBlind) {
+  const fs::path scenario = staticScenario("blind_slip", "Events.Blackout: [20.0, 22.0]\nEvents.Slip: [20.0, 22.0]\n");
+  const fs::path dir = simulate(scenario.string(), 24);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "blind slip vw", &vw));
+  EXPECT_LE(vw.ate, 0.003 * vw.path) << vw.out;
+  EXPECT_LE(vw.max_step, 0.05);
+  EXPECT_EQ(vw.out.find("relocalised: 0"), std::string::npos) << vw.out;
+  fs::remove_all(dir);
+}
+
+// A slip (8-9 s: the wheels spin, the robot stands), vision drives on for a second, then goes
+// dark (10-11.5 s) while the robot drives at 0.26 m/s. The slip is over: the wheels carry the pose
+// through the blackout. (Holding it where vision left it, as a blackout that starts in a slip
+// does, held it for the second left of Tracking.SlipHold, some 0.26 m behind the robot: 0.54 %
+// of the path once relocalisation had bent the stretch.)
+TEST(Replay, BlackoutAfterASlipEndedFollowsTheWheels) {
+  const fs::path scenario =
+      staticScenario("slip_then_blind", "Events.Slip: [8.0, 9.0]\nEvents.Blackout: [10.0, 11.5]\n");
+  const fs::path dir = simulate(scenario.string(), 14);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "slip, then blind vw", &vw));
+  EXPECT_TRUE(slipCaught(vw.out)) << vw.out;
+  // Measured 0.125 %, largest step 2.5 cm (the slip's first frames, before vision could tell).
+  EXPECT_LE(vw.ate, 0.0025 * vw.path) << vw.out;
+  EXPECT_LE(vw.max_step, 0.04);
+  fs::remove_all(dir);
+}
+
+// Mono, a 1 s slip (8-9 s) under a static scene: mono's vision weighs little along its optical
+// axis against the wheel edge, so the fused pose drives on with the wheels, and one frame's counts
+// cannot tell (vision alone and the fused pose explained 305 and 294 landmarks). Vision alone's own
+// track, over 0.2 s five frames in a row (wheelsStall), saw the robot stand. Before it, 3 of the
+// slip's 30 frames were caught, the first 0.6 s in with the pose 15 cm ahead: 0.69 % of the path
+// (1.96 % with seed 3, now 0.32 %).
+TEST(Replay, MonoSlipCaughtByVisionAlonesTrack) {
+  const fs::path scenario = staticScenario("mono_slip", "Events.Slip: [8.0, 9.0]\n", "mono", "pinhole");
+  const fs::path dir = simulate(scenario.string(), 14);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "mono slip vw", &vw));
+  const std::size_t at = vw.out.find("(a slip): ");
+  ASSERT_NE(at, std::string::npos) << vw.out;
+  // Measured: 23 slip frames, 0.419 % of the path, largest step 9.7 cm (vision taking over, 0.43 s in).
+  EXPECT_GE(std::stoi(vw.out.substr(at + 10)), 20) << vw.out;
+  EXPECT_LE(vw.ate, 0.005 * vw.path) << vw.out;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace rvwo::apps::test
