@@ -1,7 +1,9 @@
-# Installs RVWO into a fresh prefix, then configures, builds and runs a consumer project made of
-# the README's "Use a component in your own SLAM system" code blocks (so the README's example
-# is the one that compiles). A second consumer asks for the kernels component alone and checks
-# that it gets rvwo::kernels and nothing else.
+# Installs RVWO into a fresh prefix and copies the installed tree elsewhere (nothing in it may
+# point at the build, the source tree or its .deps/). From the copy, with LD_LIBRARY_PATH empty:
+# every installed app's --help, and rvwo-sim and rvwo-replay on a 2 s sequence. Then configures,
+# builds and runs consumer projects against the copy: one made of the README's "Use a component in
+# your own SLAM system" code blocks (so the README's example is the one that compiles), and one per
+# component asked for alone (kernels alone gets rvwo::kernels and nothing else).
 # Run as: cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -P consumer_test.cmake
 foreach(v BUILD_DIR SOURCE_DIR WORK_DIR)
   if(NOT DEFINED ${v})
@@ -9,16 +11,58 @@ foreach(v BUILD_DIR SOURCE_DIR WORK_DIR)
   endif()
 endforeach()
 
+# Runs a command; fails the test unless it exits 0. Its output is left in `out`.
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT rc EQUAL 0)
     message(FATAL_ERROR "consumer_test: '${ARGN}' failed (${rc}):\n${out}\n${err}")
   endif()
+  set(out "${out}" PARENT_SCOPE)
 endfunction()
 
 file(REMOVE_RECURSE "${WORK_DIR}")
-set(prefix "${WORK_DIR}/prefix")
-run(${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${prefix}")
+run(${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${WORK_DIR}/installed")
+file(COPY "${WORK_DIR}/installed/" DESTINATION "${WORK_DIR}/copy")  # symbolic links kept as links
+set(prefix "${WORK_DIR}/copy")
+
+# The copy's binaries find their libraries relative to themselves, and its CMake files name no
+# folder of the build.
+file(GLOB apps "${prefix}/bin/*")
+if(NOT apps)
+  message(FATAL_ERROR "consumer_test: no app installed in bin/")
+endif()
+foreach(a ${apps})
+  run(readelf -d "${a}")
+  string(REGEX MATCH "R(UN)?PATH[^\n]*" runpath "${out}")
+  if(runpath MATCHES "\\[/|:/")
+    message(FATAL_ERROR "consumer_test: ${a}: an absolute ${runpath}")
+  endif()
+endforeach()
+file(GLOB_RECURSE cmake_files "${prefix}/*.cmake")
+foreach(f ${cmake_files})
+  file(READ "${f}" text)
+  foreach(dir "${SOURCE_DIR}" "${BUILD_DIR}" "${WORK_DIR}/installed")
+    string(FIND "${text}" "${dir}" at)
+    if(NOT at EQUAL -1)
+      message(FATAL_ERROR "consumer_test: ${f} names ${dir}")
+    endif()
+  endforeach()
+endforeach()
+set(ENV{LD_LIBRARY_PATH} "")
+foreach(a ${apps})
+  run("${a}" --help)
+endforeach()
+if(EXISTS "${prefix}/bin/rvwo-sim" AND EXISTS "${prefix}/bin/rvwo-replay")
+  set(seq "${WORK_DIR}/sequence")
+  run("${prefix}/bin/rvwo-sim" --quiet --scenario "${SOURCE_DIR}/scenarios/static.yaml" --duration 2 --out "${seq}")
+  run("${prefix}/bin/rvwo-replay" --quiet --settings "${seq}/settings.yaml" --rawlog "${seq}/sequence.rawlog"
+      --out "${seq}/vw.txt")
+  file(STRINGS "${seq}/vw.txt" poses REGEX "^[0-9]")
+  list(LENGTH poses n)
+  if(n LESS 50)
+    message(FATAL_ERROR "consumer_test: the installed rvwo-replay wrote ${n} poses for 2 s at 30 Hz")
+  endif()
+endif()
 foreach(f include/rvwo/kernels/barron.h include/rvwo/edges/se2_xyz_edge.h lib/cmake/rvwo/rvwoConfig.cmake)
   if(NOT EXISTS "${prefix}/${f}")
     message(FATAL_ERROR "consumer_test: ${f} not installed")
@@ -107,10 +151,13 @@ int main() {
 set(estimator_main "#include <rvwo/estimator/estimator.h>
 int main() { return rvwo::estimator::EstimatorOptions().window > 0 ? 0 : 1; }
 ")
+set(settings_main "#include <rvwo/settings/settings.h>
+int main() { return rvwo::Settings::fromString(\"%YAML:1.0\\nA: 2\\n\", \"s.yaml\").requireNumber(\"A\") == 2 ? 0 : 1; }
+")
 set(orbslam3_main "#include <rvwo/orbslam3/wheel_input.h>
 int main() { rvwo::orbslam3::WheelInput w; return w.active() ? 1 : 0; }
 ")
-foreach(c tracking estimator orbslam3)
+foreach(c tracking settings estimator orbslam3)
   if(NOT EXISTS "${prefix}/lib/cmake/rvwo/rvwo_${c}-targets.cmake")
     continue()
   endif()
