@@ -43,8 +43,9 @@ for target in rawlog settings trajectory; do
   known=0 found=0
   for input in "$crashes"/*; do
     [ -e "$input" ] || continue
-    trace=$(ASAN_OPTIONS=detect_leaks=0 "$OUT/tests/fuzz/fuzz_$target" -malloc_limit_mb=512 -rss_limit_mb=2048 \
-      "$input" 2>&1 || true)
+    # Bounded twice: a timeout input would otherwise run again without end.
+    trace=$(ASAN_OPTIONS=detect_leaks=0 timeout 60 "$OUT/tests/fuzz/fuzz_$target" -timeout=10 -malloc_limit_mb=512 \
+      -rss_limit_mb=2048 "$input" 2>&1 || true)
     if [[ $(basename "$input") == oom-* && $trace == *'mrpt::serialization::'* ]]; then
       known=$((known + 1))
       rm "$input"

@@ -82,6 +82,9 @@ TEST(Settings, SyntaxErrorsAndKeysGivenTwiceNameTheirLines) {
   EXPECT_EQ(errorOf("%YAML:1.0\nM: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [1]\n"
                     "N: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [2]\n"),
             "loaded");
+  // OpenCV's parser looped for ever on this one (fuzzing found it): refused before it reads.
+  EXPECT_EQ(errorOf("%YAML:1.0\n# a comment\n\n   data: []\nOdo-e:1.0\n"),
+            bad.string() + ": line 4: the first key is indented (top-level keys start in the first column)");
   expectError([] { Settings::fromString("%YAML:1.0\nA: 1\nA: 2\n", "t.yaml"); },
               "t.yaml: A is given twice (lines 2 and 3): keep one");
   fs::remove(bad);

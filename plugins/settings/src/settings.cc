@@ -60,6 +60,21 @@ void checkDuplicateKeys(const std::string& name, const std::string& text) {
   }
 }
 
+// The first key starts in the first column. OpenCV 4.6's YAML parser can loop for ever on a file
+// whose first key is indented and a later line is not (fuzzing found one): refused before it reads.
+void checkFirstKey(const std::string& name, const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    const std::size_t at = line.find_first_not_of(" \t\r");
+    if (at == std::string::npos || line[at] == '#' || line[at] == '%' || line.compare(at, 3, "---") == 0) continue;
+    if (at > 0)
+      throw std::runtime_error(name + ": line " + std::to_string(n) +
+                               ": the first key is indented (top-level keys start in the first column)");
+    return;
+  }
+}
+
 }  // namespace
 
 Settings Settings::load(const std::string& path) {
@@ -71,6 +86,7 @@ Settings Settings::load(const std::string& path) {
   if (!in) throw std::runtime_error(path + ": cannot be read");
   if (text.str().rfind("%YAML", 0) != 0)
     throw std::runtime_error(path + ": not a settings YAML file (its first line must be %YAML:1.0)");
+  checkFirstKey(path, text.str());
   Settings s;
   s.path_ = path;
   try {
@@ -85,6 +101,7 @@ Settings Settings::load(const std::string& path) {
 }
 
 Settings Settings::fromString(const std::string& yaml, const std::string& name) {
+  checkFirstKey(name, yaml);
   Settings s;
   s.path_ = name;
   try {
