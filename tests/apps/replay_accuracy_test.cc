@@ -110,7 +110,9 @@ TEST(Replay, DynamicAdaptiveKernelBeatsHuber) {
     }
     fs::remove_all(dir);
   }
-  if (seeds == 3) EXPECT_LE(sum_adaptive, 0.7 * sum_huber) << "adaptive " << sum_adaptive << ", huber " << sum_huber;
+  if (seeds == 3) {
+    EXPECT_LE(sum_adaptive, 0.7 * sum_huber) << "adaptive " << sum_adaptive << ", huber " << sum_huber;
+  }
 }
 
 // Walkers no label marks drag the fused pose off the wheels a few millimetres and milliradians a
@@ -120,6 +122,7 @@ TEST(Replay, DynamicAdaptiveKernelBeatsHuber) {
 // (0.404 %) without; over five seeds' cuts 1.61 against 2.11 % summed, one of them worse
 // (seed 1, above).
 TEST(Replay, WalkersNoLabelMarksLoseToTheWheelGate) {
+  RVWO_FULL_LENGTH_ONLY();
   const fs::path dir = simulate("dynamic", 30, "", 3);
   {
     std::ofstream off(dir / "no_gate.yaml");
@@ -162,6 +165,7 @@ TEST(Replay, SlipVisionHalvesTheWheelError) {
 // fixed where the wheels disagree with the window), the turn scale went from 0.98 to 0.61 in a
 // sequence without walkers, and this cut ended at 0.80 % of its path (0.054 % after).
 TEST(Replay, SpinOnTheSpotSlipAndWalkersLeaveTheCalibration) {
+  RVWO_FULL_LENGTH_ONLY();
   const fs::path dir = simulate("combined", 40);
   Outcome vw;
   ASSERT_NO_FATAL_FAILURE(replayVw(dir, "combined 40 s vw", &vw));
