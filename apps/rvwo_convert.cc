@@ -154,7 +154,7 @@ struct ConvertArgs {
   TCLAP::CmdLine cmd{
       "rvwo-convert: a TUM RGB-D, OpenLORIS-Scene or generic (images + odometry CSV) folder to an RVWO rawlog; "
       "images are referenced in place, the ground truth copied beside the rawlog.",
-      ' ', "0.1"};
+      ' ', RVWO_VERSION};
   std::vector<std::string> kinds = {"tum", "openloris", "generic"};
   TCLAP::ValuesConstraint<std::string> kinds_c{kinds};
   TCLAP::UnlabeledValueArg<std::string> kind{"kind", "the folder's format", true, "", &kinds_c, cmd};

@@ -436,7 +436,7 @@ int main(int argc, char** argv) {
         "rvwo-demo: simulates a wheeled robot with a stereo camera among walking people and solves the run as a "
         "planar bundle adjustment with RVWO's edges four ways (wheels only; vision with Huber; vision and wheels "
         "with Huber; vision and wheels with the adaptive Barron kernel), printing each one's trajectory error.",
-        ' ', "0.1");
+        ' ', RVWO_VERSION);
     TCLAP::ValueArg<double> seconds("", "seconds", "length of the run in seconds (default 90)", false, 90, "s", cmd);
     TCLAP::ValueArg<int> walkers("", "walkers", "people walking across the room (default 4)", false, 4, "N", cmd);
     TCLAP::ValueArg<unsigned> seed("", "seed", "first random seed: same seed, same run (default 1)", false, 1, "N",

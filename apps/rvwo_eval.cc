@@ -35,7 +35,7 @@ struct EvalArgs {
   TCLAP::CmdLine cmd{
       "rvwo-eval: absolute trajectory error (ATE) and relative pose error (RPE) of an estimate against ground truth, "
       "both TUM files, computed as evo_ape / evo_rpe do (translation parts).",
-      ' ', "0.1"};
+      ' ', RVWO_VERSION};
   TCLAP::ValueArg<std::string> gt{"", "gt", "ground truth, TUM format", true, "", "GT.txt", cmd};
   TCLAP::ValueArg<std::string> est{"", "est", "the estimate, TUM format", true, "", "EST.txt", cmd};
   TCLAP::ValueArg<std::string> align{"", "align", "se3 (default), posyaw, sim3 or none", false, "se3", "mode", cmd};

@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
         "from the camera images of rawlogs, with ORB-SLAM3's own ORB extractor. Train it on recordings other than "
         "those you evaluate on. Example: rvwo-sim --scenario scenarios/static.yaml --seed 2 --out train && "
         "rvwo-orbslam3-vocab --rawlog train/sequence.rawlog --out voc.txt",
-        ' ', "0.1");
+        ' ', RVWO_VERSION);
     TCLAP::MultiArg<std::string> rawlogs("", "rawlog", "a recording (several may be given)", true, "R.rawlog", cmd);
     TCLAP::ValueArg<std::string> out("", "out", "vocabulary file to write (text)", true, "", "voc.txt", cmd);
     TCLAP::ValueArg<std::string> label("", "camera-label", "sensor label of the camera (default: CAMERA, RGBD)", false,

@@ -45,7 +45,7 @@ struct SegmentArgs {
       "rvwo-segment: runs an ONNX segmentation network on an image and writes its label image; prints each class's "
       "share of the pixels and the time per frame. The defaults fit DeepLab-style networks: RGB, NCHW, "
       "(x - 127.5) / 127.5, class scores out.",
-      ' ', "0.1"};
+      ' ', RVWO_VERSION};
   TCLAP::ValueArg<std::string> model{"", "model", "the ONNX model", true, "", "file.onnx", cmd};
   TCLAP::ValueArg<std::string> labels{"",     "labels", "the label set it speaks: voc21, coco80 or ade20k150", true, "",
                                       "name", cmd};

@@ -107,7 +107,7 @@ struct SimArgs {
       "rvwo-sim: renders a test sequence (textured room, wheeled robot, stereo / RGB-D / mono camera, wheel "
       "odometry, walkers, slip, blackouts, low texture, illumination changes, floor bumps) into an MRPT rawlog with "
       "settings and ground truth. The scenario format is in docs/simulator.md.",
-      ' ', "0.1"};
+      ' ', RVWO_VERSION};
   TCLAP::ValueArg<std::string> scenario{"", "scenario", "the scenario YAML", true, "", "S.yaml", cmd};
   TCLAP::ValueArg<std::string> out{"",    "out", "output folder (created; existing outputs are replaced)", true, "",
                                    "DIR", cmd};

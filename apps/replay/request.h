@@ -22,7 +22,7 @@ struct ReplayArgs {
       "keyframes) and writes the robot's pose at every frame in TUM format, a report and a PNG plot. "
       "Example: rvwo-sim --scenario scenarios/dynamic.yaml --out seq --duration 20 && rvwo-replay --settings "
       "seq/settings.yaml --rawlog seq/sequence.rawlog --out traj.txt --gt seq/groundtruth.txt",
-      ' ', "0.1"};
+      ' ', RVWO_VERSION};
   TCLAP::ValueArg<std::string> settings{
       "", "settings", "settings YAML (camera, extrinsic, odometry, ...)", true, "", "S.yaml", cmd};
   TCLAP::ValueArg<std::string> rawlog{"", "rawlog", "the recording", true, "", "R.rawlog", cmd};

@@ -2,7 +2,7 @@
 # line, nothing written; a mistyped option must fail (exit 1) with one line "<app>: error: --x: ...". (MRPT's
 # TCLAP returns false from parse() in both cases instead of exiting: an app that ignored it went
 # on with empty arguments and failed, and rvwo-demo ran a whole demo.)
-#   cmake -DAPP=<executable> -DWORK=<empty scratch folder> -P help_test.cmake
+#   cmake -DAPP=<executable> -DWORK=<empty scratch folder> -DVERSION=<the project version> -P help_test.cmake
 file(REMOVE_RECURSE "${WORK}")
 file(MAKE_DIRECTORY "${WORK}")
 foreach(flag --help --version)
@@ -17,7 +17,7 @@ foreach(flag --help --version)
   if(flag STREQUAL "--help" AND NOT out MATCHES "USAGE:")
     message(FATAL_ERROR "${APP} --help: no usage in: ${out}")
   endif()
-  if(flag STREQUAL "--version" AND NOT out MATCHES "version")
+  if(flag STREQUAL "--version" AND NOT out MATCHES "version: ${VERSION}")
     message(FATAL_ERROR "${APP} --version: no version in: ${out}")
   endif()
 endforeach()

@@ -4,7 +4,8 @@
 # builds and runs consumer projects against the copy: one made of the README's "Use a component in
 # your own SLAM system" code blocks (so the README's example is the one that compiles), and one per
 # component asked for alone (kernels alone gets rvwo::kernels and nothing else).
-# Run as: cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -P consumer_test.cmake
+# With -DFROM=deb the tree is the Debian package's (cpack -G DEB), unpacked with dpkg-deb -x.
+# Run as: cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... [-DFROM=deb] -P consumer_test.cmake
 foreach(v BUILD_DIR SOURCE_DIR WORK_DIR)
   if(NOT DEFINED ${v})
     message(FATAL_ERROR "consumer_test: ${v} not set")
@@ -21,9 +22,28 @@ function(run)
 endfunction()
 
 file(REMOVE_RECURSE "${WORK_DIR}")
-run(${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${WORK_DIR}/installed")
-file(COPY "${WORK_DIR}/installed/" DESTINATION "${WORK_DIR}/copy")  # symbolic links kept as links
-set(prefix "${WORK_DIR}/copy")
+if(FROM STREQUAL "deb")
+  # The Debian package, unpacked: what `apt install ./rvwo_<version>_amd64.deb` puts under /usr.
+  run(${CMAKE_CPACK_COMMAND} -G DEB --config "${BUILD_DIR}/CPackConfig.cmake" -B "${WORK_DIR}/deb")
+  file(GLOB deb "${WORK_DIR}/deb/rvwo_*.deb")
+  run(dpkg-deb -f "${deb}" Depends)
+  foreach(needed libopencv libmrpt libc6)  # Ceres is linked statically (libceres-dev has no shared one)
+    if(NOT out MATCHES "${needed}")
+      message(FATAL_ERROR "consumer_test: ${deb} does not depend on ${needed}: ${out}")
+    endif()
+  endforeach()
+  run(dpkg-deb -x "${deb}" "${WORK_DIR}/unpacked")
+  set(prefix "${WORK_DIR}/unpacked/usr")
+  foreach(f share/rvwo/patches/orbslam3/README.md share/doc/rvwo/LICENSE)
+    if(NOT EXISTS "${prefix}/${f}")
+      message(FATAL_ERROR "consumer_test: ${f} not in ${deb}")
+    endif()
+  endforeach()
+else()
+  run(${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${WORK_DIR}/installed")
+  file(COPY "${WORK_DIR}/installed/" DESTINATION "${WORK_DIR}/copy")  # symbolic links kept as links
+  set(prefix "${WORK_DIR}/copy")
+endif()
 
 # The copy's binaries find their libraries relative to themselves, and its CMake files name no
 # folder of the build.
@@ -41,7 +61,7 @@ endforeach()
 file(GLOB_RECURSE cmake_files "${prefix}/*.cmake")
 foreach(f ${cmake_files})
   file(READ "${f}" text)
-  foreach(dir "${SOURCE_DIR}" "${BUILD_DIR}" "${WORK_DIR}/installed")
+  foreach(dir "${SOURCE_DIR}" "${BUILD_DIR}" "${WORK_DIR}/installed" "${WORK_DIR}/deb")
     string(FIND "${text}" "${dir}" at)
     if(NOT at EQUAL -1)
       message(FATAL_ERROR "consumer_test: ${f} names ${dir}")
