@@ -1,6 +1,7 @@
 # Installs RVWO into a fresh prefix and copies the installed tree elsewhere (nothing in it may
 # point at the build, the source tree or its .deps/). From the copy, with LD_LIBRARY_PATH empty:
-# every installed app's --help, and rvwo-sim and rvwo-replay on a 2 s sequence. Then configures,
+# every installed app's --help, and rvwo-sim (on an installed scenario) and rvwo-replay on a 2 s
+# sequence. Then configures,
 # builds and runs consumer projects against the copy: one made of the README's "Use a component in
 # your own SLAM system" code blocks (so the README's example is the one that compiles), and one per
 # component asked for alone (kernels alone gets rvwo::kernels and nothing else).
@@ -74,7 +75,7 @@ foreach(a ${apps})
 endforeach()
 if(EXISTS "${prefix}/bin/rvwo-sim" AND EXISTS "${prefix}/bin/rvwo-replay")
   set(seq "${WORK_DIR}/sequence")
-  run("${prefix}/bin/rvwo-sim" --quiet --scenario "${SOURCE_DIR}/scenarios/static.yaml" --duration 2 --out "${seq}")
+  run("${prefix}/bin/rvwo-sim" --quiet --scenario "${prefix}/share/rvwo/scenarios/static.yaml" --duration 2 --out "${seq}")
   run("${prefix}/bin/rvwo-replay" --quiet --settings "${seq}/settings.yaml" --rawlog "${seq}/sequence.rawlog"
       --out "${seq}/vw.txt")
   file(STRINGS "${seq}/vw.txt" poses REGEX "^[0-9]")
