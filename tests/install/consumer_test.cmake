@@ -157,8 +157,8 @@ int main() {
   run("${s}/build/s")
 endif()
 
-# tracking, the estimator and the ORB-SLAM3 plugin, each asked for alone: found with what they
-# need (Ceres before tracking), built and run.
+# The solver adapters, tracking, settings, the estimator and the ORB-SLAM3 plugin, each asked for
+# alone: found with what they need (Ceres before tracking; g2o from the installed tree), built and run.
 set(tracking_main "#include <rvwo/tracking/window.h>
 int main() {
   const rvwo::PinholeCamera camera(400, 400, 320, 240);
@@ -172,13 +172,19 @@ int main() {
 set(estimator_main "#include <rvwo/estimator/estimator.h>
 int main() { return rvwo::estimator::EstimatorOptions().window > 0 ? 0 : 1; }
 ")
+set(ceres_main "#include <rvwo/ceres/barron_loss.h>
+int main() { double rho[3]; rvwo::ceres_adapters::BarronLoss(2.0, 1.0).Evaluate(1.0, rho); return rho[0] > 0 ? 0 : 1; }
+")
+set(g2o_main "#include <rvwo/g2o/barron_kernel.h>
+int main() { Eigen::Vector3d rho; rvwo::g2o_adapters::BarronRobustKernel(2.0, 1.0).robustify(1.0, rho); return rho[0] > 0 ? 0 : 1; }
+")
 set(settings_main "#include <rvwo/settings/settings.h>
 int main() { return rvwo::Settings::fromString(\"%YAML:1.0\\nA: 2\\n\", \"s.yaml\").requireNumber(\"A\") == 2 ? 0 : 1; }
 ")
 set(orbslam3_main "#include <rvwo/orbslam3/wheel_input.h>
 int main() { rvwo::orbslam3::WheelInput w; return w.active() ? 1 : 0; }
 ")
-foreach(c tracking settings estimator orbslam3)
+foreach(c ceres g2o tracking settings estimator orbslam3)
   if(NOT EXISTS "${prefix}/lib/cmake/rvwo/rvwo_${c}-targets.cmake")
     continue()
   endif()
