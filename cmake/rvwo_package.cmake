@@ -1,8 +1,8 @@
 # The Debian package: `cpack -G DEB` in a build folder makes rvwo_<version>_amd64.deb for Debian 12,
 # installed under /usr: the apps on the PATH, the libraries, headers and CMake package, ONNX Runtime
-# and g2o under lib/rvwo/, the ORB-SLAM3 patch set under share/rvwo/. Depends: the Debian runtime
-# libraries its binaries load (dpkg-shlibdeps); Recommends: the -dev packages a consumer of the CMake
-# package compiles against.
+# and g2o under lib/rvwo/, the ORB-SLAM3 patch set and the scenarios under share/rvwo/. Depends:
+# the Debian runtime libraries its binaries load (dpkg-shlibdeps); Recommends: the -dev packages a
+# consumer of the CMake package compiles against.
 set(CPACK_PACKAGE_NAME rvwo)
 set(CPACK_PACKAGE_VENDOR "the RVWO authors")
 set(CPACK_PACKAGE_CONTACT "the RVWO authors")

@@ -2,9 +2,9 @@
 # Runs RVWO's tests from a fresh clone, in three tiers (ctest labels): unit (seconds each: maths,
 # adapters, readers), system (short replays and the apps), long (minutes of simulated video: the
 # accuracy bounds). Set-up (scripts/setup.sh), a RelWithDebInfo build in build/ and every tier;
-# then a build under ASan + UBSan in build-asan/ with the unit and
-# system tiers, ThreadSanitizer over the threaded tests in build-tsan/ (RVWO_SANITIZERS=0 skips
-# both), and the readers fuzzed in a clang build (scripts/fuzz.sh; RVWO_FUZZ_SECONDS=0 skips it).
+# then a build under ASan + UBSan in build-asan/ with the unit and system tiers, ThreadSanitizer
+# over the threaded tests in build-tsan/ (RVWO_SANITIZERS=0 skips both), and the readers fuzzed in
+# a clang build (scripts/fuzz.sh; RVWO_FUZZ_SECONDS=0 skips it). docs/decisions/0013.
 #   --ci  what .ci/run does: the long tier on the scenarios' short cuts (RVWO_REPLAY_CUTS=short),
 #         the unit tier alone under ASan + UBSan, no fuzzing beyond the regression corpora. Run the
 #         whole of it before submitting a change to the estimator, the plugin or the simulator.
@@ -23,7 +23,7 @@ stamp() { echo "== $* ($(( $(date +%s) - start )) s)"; }
 stamp "set-up"
 bash scripts/setup.sh
 stamp "build (build/)"
-# Line tables only (-g1): enough for a backtrace, and full debug info took 40 % of the compile time.
+# Line tables only (-g1): enough for a backtrace, at a fraction of full debug info's compile time.
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
   >build-configure.log || { cat build-configure.log; exit 1; }
 cmake --build build
@@ -65,9 +65,10 @@ if [ "${RVWO_SANITIZERS:-1}" != 0 ]; then
 fi
 # Fuzzing finds new inputs at random: CI, which must say the same of the same commit, runs the
 # regression corpora alone (unit tests, plain and under ASan + UBSan).
-if [ $ci = 1 ]; then export RVWO_FUZZ_SECONDS=${RVWO_FUZZ_SECONDS:-0}; fi
-if [ "${RVWO_FUZZ_SECONDS:-60}" != 0 ]; then
-  stamp "fuzzing the readers (build-fuzz/, ${RVWO_FUZZ_SECONDS:-60} s each)"
+if [ $ci = 1 ]; then fuzz_default=0; else fuzz_default=60; fi
+export RVWO_FUZZ_SECONDS=${RVWO_FUZZ_SECONDS:-$fuzz_default}
+if [ "$RVWO_FUZZ_SECONDS" != 0 ]; then
+  stamp "fuzzing the readers (build-fuzz/, $RVWO_FUZZ_SECONDS s each)"
   bash scripts/fuzz.sh
 fi
 stamp "all tests passed"

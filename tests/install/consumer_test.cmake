@@ -1,10 +1,10 @@
 # Installs RVWO into a fresh prefix and copies the installed tree elsewhere (nothing in it may
 # point at the build, the source tree or its .deps/). From the copy, with LD_LIBRARY_PATH empty:
 # every installed app's --help, and rvwo-sim (on an installed scenario) and rvwo-replay on a 2 s
-# sequence. Then configures,
-# builds and runs consumer projects against the copy: one made of the README's "Use a component in
-# your own SLAM system" code blocks (so the README's example is the one that compiles), and one per
-# component asked for alone (kernels alone gets rvwo::kernels and nothing else).
+# sequence. Then configures, builds and runs consumer projects against the copy: one made of the
+# README's "Use a component in your own SLAM system" code blocks (so the README's example is the one
+# that compiles), and one per component asked for alone (kernels alone gets rvwo::kernels and
+# nothing else).
 # With -DFROM=deb the tree is the Debian package's (cpack -G DEB), unpacked with dpkg-deb -x.
 # Run as: cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... [-DFROM=deb] -P consumer_test.cmake
 foreach(v BUILD_DIR SOURCE_DIR WORK_DIR)
