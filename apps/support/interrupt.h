@@ -1,14 +1,18 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 //
 // SIGINT, SIGTERM and SIGHUP as a request to stop: an app that installs these handlers polls
-// interruptSignal() and finishes with what it has. The first signal only sets the flag; the
-// handlers then go back to the default, so that a second one ends the process at once.
+// interruptSignal() and finishes with what it has. A signal within kRepeatWindow of the first is
+// the same request (`timeout` and `kill` on a process group deliver it twice); one after it ends
+// the process at once, as the signal's default does.
 #pragma once
 
 #include <csignal>
 #include <string>
 
 namespace rvwo::apps {
+
+// s: how long after the first signal another one is taken as the same request.
+inline constexpr double kRepeatWindow = 1.0;
 
 void installInterruptHandlers();
 // 0, or the number of the first signal caught.
