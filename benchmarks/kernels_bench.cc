@@ -4,6 +4,9 @@
 // adapter) and the bare core. Inputs cycle over 4096 squared errors in [0, 50].
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <limits>
 #include <random>
 #include <vector>
@@ -79,6 +82,57 @@ void BM_CeresHuber(benchmark::State& state) {
   run(state, [&](double s, double* rho) { loss->Evaluate(s, rho); });
 }
 BENCHMARK(BM_CeresHuber);
+
+// Ceres' own losses of the Barron kernel's closed shapes, at the scale where they compute the same
+// values as BarronKernel(alpha, 1): Cauchy for alpha = 0 (b = 2 c^2), SoftLOne for alpha = 1
+// (b = c^2). Issue #47's bar: BM_CeresBarron/1 and /0 no slower than these.
+void BM_CeresCauchy(benchmark::State& state) {
+  const ceres::CauchyLoss cauchy(std::sqrt(2.0));
+  const ceres::LossFunction* loss = &cauchy;
+  run(state, [&](double s, double* rho) { loss->Evaluate(s, rho); });
+}
+BENCHMARK(BM_CeresCauchy);
+
+void BM_CeresSoftLOne(benchmark::State& state) {
+  const ceres::SoftLOneLoss soft_l_one(1.0);
+  const ceres::LossFunction* loss = &soft_l_one;
+  run(state, [&](double s, double* rho) { loss->Evaluate(s, rho); });
+}
+BENCHMARK(BM_CeresSoftLOne);
+
+// ns per evaluation of a loss over the 4096 inputs, in one block (the harness' loop body).
+double block(const ceres::LossFunction* loss) {
+  const std::vector<double>& s = inputs();
+  double rho[3];
+  const auto t0 = std::chrono::steady_clock::now();
+  for (const double x : s) {
+    loss->Evaluate(x, rho);
+    benchmark::DoNotOptimize(rho);
+    benchmark::ClobberMemory();
+  }
+  return std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count() / s.size();
+}
+
+// BarronLoss against Ceres' loss of the same shape, timed in alternating blocks, each one's
+// fastest block kept: a virtual machine's speed drifts by 2x within a run, and both see the drift.
+// Counters: barron_ns, ceres_ns and their ratio (issue #47's bar: at most 1).
+void BM_BarronOverCeres(benchmark::State& state) {
+  const bool cauchy = state.range(0) == 0;
+  const rvwo::ceres_adapters::BarronLoss barron(cauchy ? 0.0 : 1.0);
+  const ceres::CauchyLoss cauchy_loss(std::sqrt(2.0));
+  const ceres::SoftLOneLoss soft_l_one(1.0);
+  const ceres::LossFunction* ceres_loss = cauchy ? static_cast<const ceres::LossFunction*>(&cauchy_loss) : &soft_l_one;
+  double best_barron = 1e300, best_ceres = 1e300;
+  for (auto _ : state) {
+    best_barron = std::min(best_barron, block(&barron));
+    best_ceres = std::min(best_ceres, block(ceres_loss));
+  }
+  state.SetLabel(cauchy ? "alpha=0 against CauchyLoss" : "alpha=1 against SoftLOneLoss");
+  state.counters["barron_ns"] = best_barron;
+  state.counters["ceres_ns"] = best_ceres;
+  state.counters["ratio"] = best_barron / best_ceres;
+}
+BENCHMARK(BM_BarronOverCeres)->Arg(0)->Arg(1);
 
 void BM_CeresBarron(benchmark::State& state) {
   const rvwo::ceres_adapters::BarronLoss barron(alphaOf(state.range(0)));

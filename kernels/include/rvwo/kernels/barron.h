@@ -75,3 +75,5 @@ class BarronKernel {
 };
 
 }  // namespace rvwo
+
+#include "rvwo/kernels/detail/barron_evaluate.h"
