@@ -547,9 +547,12 @@ class ReplayApp {
     std::printf("  speed: %.1f s of data in %.1f s: %.2fx real time, %.1f frames/s; ", seq_s, wall_, seq_s / wall_,
                 rep_.frames / wall_);
     std::printf("CPU %.1f s (%.2f cores); peak memory %.0f MB\n", cpu, cpu / wall_, peakMemoryMb());
-    std::printf("  timings [ms]     mean     p95     max   count\n");
+    if (!use_orbslam3_)
+      std::printf("  map at the end: %zu keyframes and %zu points in memory, %zu keyframes retired (poses kept)\n",
+                  rep_.map_keyframes, rep_.map_points, rep_.retired_keyframes);
+    std::printf("  timings [ms]     mean     p50     p95     max   count\n");
     for (const auto& [stage, s] : rep_.timings) {
-      std::printf("  %-14s %7.2f %7.2f %7.1f %7zu\n", stage.c_str(), s.mean, s.p95, s.max, s.count);
+      std::printf("  %-14s %7.2f %7.2f %7.2f %7.1f %7zu\n", stage.c_str(), s.mean, s.p50, s.p95, s.max, s.count);
     }
     std::printf("  trajectory: %s\n", req().out.c_str());
   }

@@ -114,6 +114,8 @@ struct SimArgs {
   TCLAP::ValueArg<unsigned> seed{"", "seed", "random seed: textures, walkers, noise (default 1)", false, 1, "N", cmd};
   TCLAP::ValueArg<std::string> camera{
       "", "camera", "override the scenario's camera: stereo, rgbd or mono", false, "", "kind", cmd};
+  TCLAP::ValueArg<std::string> lens{
+      "", "lens", "override the scenario's lens: pinhole or fisheye (mono and stereo)", false, "", "kind", cmd};
   TCLAP::ValueArg<double> duration{"",  "duration", "override the scenario's duration, s (e.g. a short test)", false, 0,
                                    "s", cmd};
   TCLAP::SwitchArg quiet{"", "quiet", "no progress line", cmd};
@@ -125,6 +127,10 @@ rvwo::sim::Scenario scenarioOf(SimArgs& args) {
   if (!args.camera.getValue().empty()) {
     sc.camera = args.camera.getValue();
     sc.text += "# rvwo-sim --camera " + sc.camera + "\n";
+  }
+  if (!args.lens.getValue().empty()) {
+    sc.lens = args.lens.getValue();
+    sc.text += "# rvwo-sim --lens " + sc.lens + "\n";
   }
   if (args.duration.isSet()) {
     sc.duration = args.duration.getValue();

@@ -49,6 +49,20 @@ TEST(Replay, RealtimePacesTheRecordsAndRefusesWhatMeansNothing) {
     EXPECT_EQ(std::system((base + " " + flat_out + " > " + (dir / "rt0.stdout").string()).c_str()), 0) << flat_out;
     EXPECT_EQ(lines(dir / "rt.txt"), lines(dir / "groundtruth.txt")) << flat_out;
   }
+  // The report's map line: what memory holds at the end (Estimator.KeepKeyFrames, 14, at most),
+  // and every keyframe made either there or retired.
+  const std::string flat = slurp(dir / "rt0.stdout");
+  std::size_t made = 0, kfs = 0, points = 0, retired = 0;
+  ASSERT_EQ(std::sscanf(flat.c_str() + flat.find("keyframes "), "keyframes %zu", &made), 1) << flat;
+  ASSERT_EQ(std::sscanf(flat.c_str() + flat.find("map at the end: "),
+                        "map at the end: %zu keyframes and %zu points in memory, %zu keyframes retired", &kfs, &points,
+                        &retired),
+            3)
+      << flat;
+  EXPECT_EQ(kfs, std::min<std::size_t>(made, 14)) << flat;
+  EXPECT_EQ(kfs + retired, made) << flat;
+  EXPECT_GT(points, 500u) << flat;
+  EXPECT_NE(flat.find("timings [ms]     mean     p50     p95     max   count\n"), std::string::npos) << flat;
   for (const auto& [args, line] : std::vector<std::pair<std::string, std::string>>{
            {"--realtime -2",
             "rvwo-replay: error: --realtime must be a speed-up above 0 (1: as recorded) or 0 (as fast as it goes)\n"},

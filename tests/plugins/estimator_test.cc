@@ -295,6 +295,19 @@ Tracking.TrustedMaxPs: 0.2
 Reliability.Ph: 0.8
 )";
 
+// A stage's durations: mean, median, 95th percentile (the sample at 0.95 n, rounded down) and max.
+TEST(Report, TimingStatsOfDurations) {
+  const TimingStats s = TimingStats::of({5, 1, 3, 2, 4, 9, 8, 7, 6, 10});
+  EXPECT_EQ(s.count, 10u);
+  EXPECT_DOUBLE_EQ(s.mean, 5.5);
+  EXPECT_EQ(s.p50, 6);
+  EXPECT_EQ(s.p95, 10);
+  EXPECT_EQ(s.max, 10);
+  const TimingStats none = TimingStats::of({});
+  EXPECT_EQ(none.count, 0u);
+  EXPECT_EQ(none.p50, 0);
+}
+
 TEST(Options, FromSettings) {
   const rvwo::Settings s = rvwo::Settings::fromString(kSettings, "s.yaml");
   const Rig rig = readRig(s);

@@ -15,6 +15,7 @@ TimingStats TimingStats::of(std::vector<double> ms) {
   double sum = 0;
   for (double x : ms) sum += x;
   s.mean = sum / ms.size();
+  s.p50 = ms[ms.size() / 2];
   s.p95 = ms[std::min(ms.size() - 1, static_cast<std::size_t>(0.95 * ms.size()))];
   s.max = ms.back();
   return s;
@@ -141,6 +142,9 @@ Report Estimator::report() const {
   Report r = impl_->counters;
   r.frames = impl_->frames.size();
   r.keyframes = impl_->next_kf;
+  r.map_keyframes = impl_->keyframes.size();
+  r.map_points = impl_->points.size();
+  r.retired_keyframes = impl_->final_pose.size();
   r.slip_frames = impl_->slip_frames;
   r.wheel_edge_outliers = impl_->wheel_outliers;
   if (const std::uint64_t failed = impl_->async ? impl_->async->stats().failed : 0) {

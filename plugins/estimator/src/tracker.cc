@@ -431,7 +431,9 @@ void Estimator::Impl::drain(bool all) {
     if (!ready) break;
     PendingFrame next = std::move(pending.front());
     pending.pop_front();
+    const auto t0 = Clock::now();
     processFrame(next.in, std::move(next.front_end));
+    timings.add("tracking", msSince(t0));  // the frame's whole turn, its waits included
   }
 }
 

@@ -47,7 +47,7 @@ struct FrameInput {
 };
 
 struct TimingStats {  // ms
-  double mean = 0, p95 = 0, max = 0;
+  double mean = 0, p50 = 0, p95 = 0, max = 0;
   std::size_t count = 0;
   // Of a stage's durations, ms (none: all zero).
   static TimingStats of(std::vector<double> ms);
@@ -57,6 +57,9 @@ struct Report {
   std::size_t frames = 0, keyframes = 0, wheel_only_frames = 0;
   std::vector<std::pair<double, double>> wheel_only_intervals;  // [t0, t1] s, frames on wheels only
   std::size_t map_points_created = 0, map_points_rejected = 0;  // rejected: alpha = -inf when they left the map
+  // The map at the end: keyframes and points in memory (what local mapping and tracking search),
+  // and keyframes that left it (only their poses kept, for the trajectory).
+  std::size_t map_keyframes = 0, map_points = 0, retired_keyframes = 0;
   std::size_t segmented_keyframes = 0;
   std::size_t segmentation_failures = 0;  // keyframes whose labels could not be used (segmenter failed, wrong size)
   std::string segmentation_error;         // the first such failure, in words
