@@ -46,7 +46,7 @@ WindowOptions WheelInput::Impl::windowOptions(const ceres_adapters::WheelCalibra
   WindowOptions o;
   o.huber = params.huber;
   o.barron_scale = params.tracking.barron_scale;
-  o.out_of_plane = out_of_plane;
+  o.out_of_plane = params.tracking.outOfPlane();
   o.min_views = 1;
   o.outliers_leave = false;
   o.drop_slipping_wheel_edges = false;

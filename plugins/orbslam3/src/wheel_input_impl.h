@@ -54,7 +54,6 @@ struct WheelInput::Impl {
     if (!(p.mono_keyframe_travel > 0))
       throw std::invalid_argument("WheelInputParams: mono_keyframe_travel must be > 0 m");
     p.tracking.validate();
-    out_of_plane = p.tracking.outOfPlane();
     arbiter = FrameArbiter(arbiterOptions());
   }
   // Tracking calls everything but optimiseLocalMap, ORB-SLAM3's local mapping thread that: what
@@ -81,8 +80,7 @@ struct WheelInput::Impl {
   double monocularScale(double t0, double t1, const Eigen::Isometry3d& T_c0_w, const Eigen::Isometry3d& T_c1_w) const;
   std::vector<std::pair<double, double>> intervals;
   // ---- pose optimisation
-  ReliabilityManager reliability;  // per map point id: eq. 6 from its latest whitened error
-  OutOfPlaneNoise out_of_plane;
+  ReliabilityManager reliability;       // per map point id: eq. 6 from its latest whitened error
   std::optional<PinholeCamera> camera;  // made with the first problem (ORB-SLAM3's intrinsics)
   std::optional<Se2XyzMonoEdge> mono;
   std::optional<Se2XyzStereoEdge> stereo;
