@@ -52,8 +52,8 @@ table="$out/table.md"
     "$(nproc) CPUs ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'))${cpus:+, taskset -c $cpus}:" \
     "\`bash scripts/bench.sh --duration $duration${cpus:+ --cpus $cpus}\`"
   echo
-  echo "| run | x real time | frames/s | CPU s per s | tracking ms p50/p95/max | features p95 | local BA ms p50/p95 | peak MB | map kf / points | ATE % path |"
-  echo "|---|---|---|---|---|---|---|---|---|---|"
+  echo "| run | x real time | frames/s | CPU s per s | tracking ms p50/p95/max | features p95 | local BA ms p50/p95 | peak MB | keyframes | map kf / points | ATE % path |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|"
 } >"$table"
 
 row() {  # name, report
@@ -71,7 +71,8 @@ row() {  # name, report
   local ba; ba=$(stage "$r" "local BA" | cut -d/ -f1,2)
   local map; map=$(grep -m1 'map at the end' "$r" | sed -E 's/.*: ([0-9]+) keyframes and ([0-9]+) points.*/\1 \/ \2/' || true)
   local ate; ate=$(grep -m1 '  ATE' "$r" | sed -E 's/.* = ([0-9.]+) % .*/\1/' || true)
-  echo "| $1 | $x | $fps | $per | $track | $(stage "$r" features | cut -d/ -f2) | ${ba:--} | $mem | ${map:--} | ${ate:--} |" >>"$table"
+  local kfs; kfs=$(grep -m1 ' s, keyframes [0-9]' "$r" | sed -E 's/.* s, keyframes ([0-9]+).*/\1/' || true)
+  echo "| $1 | $x | $fps | $per | $track | $(stage "$r" features | cut -d/ -f2) | ${ba:--} | $mem | ${kfs:--} | ${map:--} | ${ate:--} |" >>"$table"
 }
 
 for cam in stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole; do
