@@ -228,8 +228,8 @@ class DemoRun {
           continue;
         if (L.walker < 0 && u_(rng_) > 0.35) continue;  // the tracker keeps a subset of the static points
         const bool person = L.walker >= 0 ? u_(rng_) < 0.9 : u_(rng_) < 0.02;
-        obs_.push_back(
-            {static_cast<int>(k), static_cast<int>(l), h + Eigen::Vector3d(g_(rng_), g_(rng_), g_(rng_)), person});
+        const double nz = g_(rng_), ny = g_(rng_), nx = g_(rng_);  // z first, on every compiler
+        obs_.push_back({static_cast<int>(k), static_cast<int>(l), h + Eigen::Vector3d(nx, ny, nz), person});
         ++seen_[l];
       }
     }

@@ -192,7 +192,8 @@ class SimApp {
       // Walkers cross the room along random segments through its middle part.
       rvwo::sim::Walker w;
       const double a = 2 * M_PI * u(rng);
-      const Eigen::Vector2d c((u(rng) - 0.5) * room_x * 0.5, (u(rng) - 0.5) * room_y * 0.5);
+      const double cy = u(rng), cx = u(rng);  // y first, on every compiler (as gcc drew them)
+      const Eigen::Vector2d c((cx - 0.5) * room_x * 0.5, (cy - 0.5) * room_y * 0.5);
       const Eigen::Vector2d dir(std::cos(a), std::sin(a));
       const double half = 0.5 * std::min(room_x, room_y) - 1.0;
       w.a = insideRoom(c - half * dir);

@@ -52,8 +52,9 @@ int Scene::makeTexture(int w, int h, std::mt19937_64& rng, bool clothes) {
   for (int i = 0; i < tries; ++i) {
     const int rw = size(rng), rh = size(rng);
     if (rw + 16 >= w || rh + 16 >= h) continue;  // 8 texels from the surface's borders, like between rectangles
-    const cv::Rect r(std::uniform_int_distribution<int>(8, w - rw - 8)(rng),
-                     std::uniform_int_distribution<int>(8, h - rh - 8)(rng), rw, rh);
+    const int ry = std::uniform_int_distribution<int>(8, h - rh - 8)(rng);  // y first, on every compiler
+    const int rx = std::uniform_int_distribution<int>(8, w - rw - 8)(rng);
+    const cv::Rect r(rx, ry, rw, rh);
     // 8 texels (8 cm) of background around every rectangle: corners stay visible and apart, so a
     // detector (and the geometry test) sees one corner at a time.
     const cv::Rect gap(r.x - 8, r.y - 8, r.width + 16, r.height + 16);

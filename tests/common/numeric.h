@@ -8,6 +8,8 @@
 #include <limits>
 #include <random>
 
+#include "draw.h"
+
 namespace rvwo::test {
 
 // d f / d x at x by central differences; step h * max(1, |x_i|) per coordinate.
@@ -47,6 +49,14 @@ inline double randomAngle(std::mt19937_64& rng, int i) {
     default:
       return u(rng);
   }
+}
+
+// (x, y, theta): theta = randomAngle(rng, i), x and y from d; drawn theta, y, x (drawVector).
+template <typename Distribution>
+Eigen::Vector3d randomPose(Distribution& d, std::mt19937_64& rng, int i) {
+  const double theta = randomAngle(rng, i);
+  const Eigen::Vector2d xy = drawVector<2>(d, rng);
+  return {xy.x(), xy.y(), theta};
 }
 
 }  // namespace rvwo::test

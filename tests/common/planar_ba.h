@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cameras.h"
+#include "draw.h"
 #include "rvwo/edges/se2_xyz_edge.h"
 #include "rvwo/edges/wheel_edge.h"
 
@@ -46,7 +47,7 @@ struct PlanarBA {
       // A point in front of a random pose, 2 to 10 m away, then kept if >= 3 poses see it.
       const Eigen::Vector3d& x = poses[static_cast<int>(u(rng) * 6)];
       const double depth = 2 + 8 * u(rng);
-      const Eigen::Vector3d ray = camera.unproject(Eigen::Vector2d(640 * u(rng), 480 * u(rng)));
+      const Eigen::Vector3d ray = camera.unproject(Eigen::Vector2d(640, 480).cwiseProduct(drawVector<2>(u, rng)));
       const Eigen::Isometry3d T_w_b =
           Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
       const Eigen::Vector3d P_w = T_w_b * T_b_c * (depth * ray);
@@ -55,7 +56,7 @@ struct PlanarBA {
         Eigen::Vector2d h;
         if (e.predict(poses[k], P_w, &h) && h.x() >= 0 && h.x() < 640 && h.y() >= 0 && h.y() < 480) {
           Eigen::Vector2d noise = Eigen::Vector2d::Zero();
-          if (noisy) noise = sigma_px * Eigen::Vector2d(g(rng), g(rng));
+          if (noisy) noise = sigma_px * drawVector<2>(g, rng);
           seen.push_back({k, static_cast<int>(points.size()), h + noise, Eigen::Matrix2d::Identity() / sigma_px});
         }
       }
@@ -68,7 +69,7 @@ struct PlanarBA {
       WheelDelta d;
       d.covariance = Eigen::Vector3d(0.02 * 0.02, 0.01 * 0.01, 0.01 * 0.01).asDiagonal();
       Eigen::Vector3d n = Eigen::Vector3d::Zero();
-      if (noisy) n = Eigen::Vector3d(0.02 * g(rng), 0.01 * g(rng), 0.01 * g(rng));
+      if (noisy) n = Eigen::Vector3d(0.02, 0.01, 0.01).cwiseProduct(drawVector<3>(g, rng));
       d.dp = delta.translation() + n.head<2>();
       d.dphi = delta.angle() + n.z();
       wheel.push_back(d);
@@ -81,8 +82,9 @@ struct PlanarBA {
     std::normal_distribution<double> g(0, 1);
     *x = poses;
     *p = points;
-    for (std::size_t k = 1; k < x->size(); ++k) (*x)[k] += Eigen::Vector3d(0.1 * g(rng), 0.1 * g(rng), 0.03 * g(rng));
-    for (auto& P : *p) P += 0.1 * Eigen::Vector3d(g(rng), g(rng), g(rng));
+    for (std::size_t k = 1; k < x->size(); ++k)
+      (*x)[k] += Eigen::Vector3d(0.1, 0.1, 0.03).cwiseProduct(drawVector<3>(g, rng));
+    for (auto& P : *p) P += 0.1 * drawVector<3>(g, rng);
   }
 
   // Errors of poses 1..5 against the truth (x, y, wrapped theta), stacked: 15 values.

@@ -15,8 +15,10 @@
 namespace rvwo {
 namespace {
 
+using test::drawVector;
 using test::numericJacobian;
 using test::randomAngle;
+using test::randomPose;
 using test::relativeError;
 constexpr double kPi = 3.14159265358979323846;
 
@@ -50,7 +52,7 @@ TEST(SE2, GroupJacobiansAgainstNumeric) {
   std::uniform_real_distribution<double> u(-5, 5);
   double worst = 0;
   for (int i = 0; i < 1000; ++i) {
-    const SE2 a(u(rng), u(rng), randomAngle(rng, i)), b(u(rng), u(rng), randomAngle(rng, i + 2));
+    const SE2 a = SE2::fromVector(randomPose(u, rng, i)), b = SE2::fromVector(randomPose(u, rng, i + 2));
     Eigen::Matrix3d Ja, Jb, Ji, Jba, Jbb;
     const SE2 ab = a.compose(b, &Ja, &Jb);
     const SE2 ai = a.inverse(&Ji);
@@ -66,7 +68,7 @@ TEST(SE2, GroupJacobiansAgainstNumeric) {
          relativeError(Jbb, numericJacobian(fbb, b.vector()))});
     Eigen::Matrix<double, 2, 3> Jp;
     Eigen::Matrix2d Jq;
-    const Eigen::Vector2d q(u(rng), u(rng));
+    const Eigen::Vector2d q = drawVector<2>(u, rng);
     a.act(q, &Jp, &Jq);
     worst = std::max(
         {worst,
@@ -82,7 +84,7 @@ TEST(SE2, ExpLogRoundTripAndGroupLaws) {
   std::mt19937_64 rng(2);
   std::uniform_real_distribution<double> u(-3, 3);
   for (int i = 0; i < 1000; ++i) {
-    const SE2 T(u(rng), u(rng), randomAngle(rng, i));
+    const SE2 T = SE2::fromVector(randomPose(u, rng, i));
     const SE2 back = SE2::exp(T.log());
     EXPECT_NEAR((back.translation() - T.translation()).norm(), 0.0, 1e-12) << T.angle();
     EXPECT_NEAR(wrapAngle(back.angle() - T.angle()), 0.0, 1e-15);
@@ -106,8 +108,8 @@ TEST(SE2, Isometry3OnTheFloorActsAsThePlanarPose) {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-3, 3);
   for (int i = 0; i < 100; ++i) {
-    const SE2 T(u(rng), u(rng), randomAngle(rng, i)), U(u(rng), u(rng), randomAngle(rng, i + 1));
-    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    const SE2 T = SE2::fromVector(randomPose(u, rng, i)), U = SE2::fromVector(randomPose(u, rng, i + 1));
+    const Eigen::Vector3d p = drawVector<3>(u, rng);
     const Eigen::Vector3d q = T.isometry3() * p;
     EXPECT_NEAR((q.head<2>() - T.act(p.head<2>())).norm(), 0.0, 1e-12);
     EXPECT_EQ(q.z(), p.z());  // the height is untouched
@@ -125,7 +127,8 @@ TEST(Camera, ProjectionJacobiansAndUnprojection) {
   double worst = 0, worst_round = 0;
   for (int i = 0; i < 2000; ++i) {
     const double z = depth(rng);
-    Eigen::Vector3d P(u(rng) * z, u(rng) * z, z);
+    const Eigen::Vector2d uv = drawVector<2>(u, rng);
+    Eigen::Vector3d P(uv.x() * z, uv.y() * z, z);
     if (i % 10 == 0) P.head<2>() *= 1e-7;    // near the optical axis: KB's series branch
     if (i % 10 == 1) P.head<2>().setZero();  // on it
     for (const CameraModel* cam : {static_cast<const CameraModel*>(&pin), static_cast<const CameraModel*>(&kb)}) {
@@ -155,7 +158,8 @@ TEST(PlanarPrior, ResidualAndJacobian) {
   double worst = 0;
   for (int i = 0; i < 500; ++i) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::AngleAxisd(3 * u(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
+    const Eigen::Vector3d axis = drawVector<3>(u, rng).normalized();
+    T.linear() = Eigen::AngleAxisd(3 * u(rng), axis).toRotationMatrix();
     T.translation() << 5 * u(rng), 5 * u(rng), 5 * u(rng);
     Eigen::Matrix<double, 3, 6> J;
     prior.residual(T, &J);

@@ -24,7 +24,8 @@ using test::relativeError;
 Eigen::Vector3d visiblePoint(std::mt19937_64& rng, const Eigen::Vector3d& x, const Eigen::Isometry3d& T_b_c) {
   std::uniform_real_distribution<double> depth(0.3, 30), u(-0.55, 0.55);
   const double z = depth(rng);
-  const Eigen::Vector3d P_c(u(rng) * z, u(rng) * z, z);
+  const Eigen::Vector2d uv = test::drawVector<2>(u, rng);
+  const Eigen::Vector3d P_c(uv.x() * z, uv.y() * z, z);
   const Eigen::Isometry3d T_w_b =
       Eigen::Translation3d(x.x(), x.y(), 0) * Eigen::AngleAxisd(x.z(), Eigen::Vector3d::UnitZ());
   return T_w_b * T_b_c * P_c;
@@ -49,7 +50,7 @@ void checkJacobians(const CameraModel& cam, double bf, unsigned seed) {
   std::uniform_real_distribution<double> u(-10, 10);
   double worst_pose = 0, worst_point = 0, worst_value = 0;
   for (int i = 0; i < 1000; ++i) {
-    const Eigen::Vector3d x(u(rng), u(rng), randomAngle(rng, i));
+    const Eigen::Vector3d x = test::randomPose(u, rng, i);
     const Eigen::Vector3d P_w = visiblePoint(rng, x, T_b_c);
     typename Se2XyzEdge<N>::Vector z = Se2XyzEdge<N>::Vector::Random(), r;
     typename Se2XyzEdge<N>::Jacobian Jx, Jp;
@@ -122,7 +123,7 @@ void monteCarloInflation(unsigned seed) {
     Eigen::Matrix<double, N, 1> mean = Eigen::Matrix<double, N, 1>::Zero();
     std::vector<Eigen::Matrix<double, N, 1>> d(kSamples);
     for (int k = 0; k < kSamples; ++k) {
-      const Eigen::Vector2d rp = L * Eigen::Vector2d(g(rng), g(rng));
+      const Eigen::Vector2d rp = L * test::drawVector<2>(g, rng);
       const double dz = noise.sigma_z * g(rng);
       const Eigen::Vector3d eta(rp.x(), rp.y(), 0.0);
       Eigen::Isometry3d T_w_b = T_w_b0;

@@ -16,8 +16,10 @@
 namespace rvwo {
 namespace {
 
+using test::drawVector;
 using test::numericJacobian;
 using test::randomAngle;
+using test::randomPose;
 using test::relativeError;
 constexpr double kPi = 3.14159265358979323846;
 
@@ -27,8 +29,9 @@ TEST(WheelPreintegrator, StepJacobiansAgainstNumeric) {
   double worst = 0;
   for (int i = 0; i < 1000; ++i) {
     WheelPreintegrator pre;
-    pre.integrate(Eigen::Vector2d(u(rng), u(rng)), randomAngle(rng, i), Eigen::Matrix3d::Zero());
-    const Eigen::Vector2d dp(0.1 * u(rng), 0.1 * u(rng));
+    const double dphi0 = randomAngle(rng, i);
+    pre.integrate(drawVector<2>(u, rng), dphi0, Eigen::Matrix3d::Zero());
+    const Eigen::Vector2d dp = 0.1 * drawVector<2>(u, rng);
     const double dphi = 0.1 * u(rng);
     Eigen::Matrix3d A, B;
     WheelPreintegrator step = pre;
@@ -54,7 +57,8 @@ TEST(WheelCalibration, ExpJacobianAgainstNumeric) {
   for (int i = 0; i < 1000; ++i) {
     // Turns from tiny (the series branch) to large.
     const double w = i % 3 == 0 ? 1e-6 * u(rng) : 2.0 * u(rng);
-    const Eigen::Vector3d xi(u(rng), 0.2 * u(rng), w);
+    const Eigen::Vector2d v = drawVector<2>(u, rng);
+    const Eigen::Vector3d xi(v.x(), 0.2 * v.y(), w);
     auto f = [](const Eigen::VectorXd& x) -> Eigen::VectorXd {
       const SE2 T = SE2::exp(x);
       return Eigen::Vector3d(T.translation().x(), T.translation().y(), x.z());
@@ -73,8 +77,10 @@ TEST(WheelCalibration, DeltaJacobianAgainstIntegratingAgain) {
   const DiffDriveParams drive;
   double worst = 0;
   for (int trial = 0; trial < 40; ++trial) {
-    WheelOdometry enc(WheelNoise{}, SE2(0.1 * u(rng), 0.05 * u(rng), 0.3 * u(rng)));
-    WheelOdometry pose(WheelNoise{}, SE2(0.1 * u(rng), 0.05 * u(rng), 0.3 * u(rng)));
+    WheelOdometry enc(WheelNoise{},
+                      SE2::fromVector(Eigen::Vector3d(0.1, 0.05, 0.3).cwiseProduct(drawVector<3>(u, rng))));
+    WheelOdometry pose(WheelNoise{},
+                       SE2::fromVector(Eigen::Vector3d(0.1, 0.05, 0.3).cwiseProduct(drawVector<3>(u, rng))));
     double ql = 0, qr = 0;
     SE2 T;
     for (int k = 0; k <= 50; ++k) {
@@ -83,10 +89,11 @@ TEST(WheelCalibration, DeltaJacobianAgainstIntegratingAgain) {
       pose.addPose(t, T);
       ql += 0.3 + 0.2 * u(rng);
       qr += 0.3 + 0.2 * u(rng);
-      T = T * SE2::exp(Eigen::Vector3d(0.03 + 0.01 * u(rng), 0.002 * u(rng), 0.1 * u(rng)));
+      const Eigen::Vector3d r = drawVector<3>(u, rng);
+      T = T * SE2::exp(Eigen::Vector3d(0.03 + 0.01 * r.x(), 0.002 * r.y(), 0.1 * r.z()));
     }
     const double t0 = 0.1 + 0.05 * u(rng), t1 = 0.9 + 0.05 * u(rng);
-    const WheelCalibration c(0.02 * u(rng), 0.02 * u(rng), 0.05 * u(rng));
+    const WheelCalibration c = Eigen::Vector3d(0.02, 0.02, 0.05).cwiseProduct(drawVector<3>(u, rng));
     for (const WheelOdometry* odo : {&enc, &pose}) {
       const WheelDelta d = odo->integrate(t0, t1, c);
       auto f = [&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
@@ -135,8 +142,8 @@ TEST(WheelEdge, JacobiansAgainstNumeric) {
   std::uniform_real_distribution<double> u(-20, 20);
   double worst = 0;
   for (int i = 0; i < 1000; ++i) {
-    const Eigen::Vector3d xi(u(rng), u(rng), randomAngle(rng, i)), xj(u(rng), u(rng), randomAngle(rng, i + 1));
-    const Eigen::Vector2d dp(0.05 * u(rng), 0.05 * u(rng));
+    const Eigen::Vector3d xi = randomPose(u, rng, i), xj = randomPose(u, rng, i + 1);
+    const Eigen::Vector2d dp = 0.05 * drawVector<2>(u, rng);
     // Keep phi_j - phi_i - dphi away from the wrap at +-pi, where the residual is discontinuous.
     const double dphi = wrapAngle(xj.z() - xi.z() - 0.5 * randomAngle(rng, 3));
     Eigen::Matrix3d Ji, Jj;
@@ -251,7 +258,7 @@ TEST_P(WheelMonteCarlo, PoseReadingsCovarianceMatchesSamples) {
       const Eigen::Vector3d xi = inc.log();
       const Eigen::Matrix3d L =
           noise.poseReadingCovariance(xi.head<2>().norm(), xi.z(), t[k] - t[k - 1]).llt().matrixL();
-      const Eigen::Vector3d n = L * Eigen::Vector3d(g(rng), g(rng), g(rng));
+      const Eigen::Vector3d n = L * drawVector<3>(g, rng);
       noisy = noisy * SE2(inc.translation() + n.head<2>(), inc.angle() + n.z());
       odo.addPose(t[k], noisy);
     }
@@ -296,8 +303,9 @@ TEST_P(WheelMonteCarlo, EncoderCovarianceMatchesSamples) {
     odo.addWheelAngles(t[0], qn.x(), qn.y(), drive);
     for (std::size_t k = 1; k < t.size(); ++k) {
       const Eigen::Vector2d dq = q[k] - q[k - 1];
+      const Eigen::Vector2d n = drawVector<2>(g, rng);
       qn += dq + noise.sigma_wheel *
-                     Eigen::Vector2d(std::sqrt(std::fabs(dq.x())) * g(rng), std::sqrt(std::fabs(dq.y())) * g(rng));
+                     Eigen::Vector2d(std::sqrt(std::fabs(dq.x())) * n.x(), std::sqrt(std::fabs(dq.y())) * n.y());
       odo.addWheelAngles(t[k], qn.x(), qn.y(), drive);
     }
     last = odo.integrate(0.0, 2.0);
@@ -324,8 +332,9 @@ TEST(WheelOdometry, EncoderSingleReadingCovarianceMatchesSamples) {
   for (int run = 0; run < 20000; ++run) {
     WheelOdometry odo(noise);
     odo.addWheelAngles(0.0, 0.0, 0.0, drive);
-    odo.addWheelAngles(1.0, dq.x() + noise.sigma_wheel * std::sqrt(dq.x()) * g(rng),
-                       dq.y() + noise.sigma_wheel * std::sqrt(dq.y()) * g(rng), drive);
+    const Eigen::Vector2d n = drawVector<2>(g, rng);
+    odo.addWheelAngles(1.0, dq.x() + noise.sigma_wheel * std::sqrt(dq.x()) * n.x(),
+                       dq.y() + noise.sigma_wheel * std::sqrt(dq.y()) * n.y(), drive);
     d = odo.integrate(0.0, 1.0);
     samples.emplace_back(d.dp.x(), d.dp.y(), d.dphi);
   }
@@ -427,7 +436,7 @@ TEST(WheelOdometry, BadInputGetsClearErrors) {
 // odometry frame off the body's: for compose() below.
 WheelOdometry randomEncoderDrive(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-1, 1);
-  WheelOdometry odo(WheelNoise{}, SE2(0.1 * u(rng), 0.05 * u(rng), 0.3 * u(rng)));
+  WheelOdometry odo(WheelNoise{}, SE2::fromVector(Eigen::Vector3d(0.1, 0.05, 0.3).cwiseProduct(drawVector<3>(u, rng))));
   const DiffDriveParams drive;
   double ql = 0, qr = 0;
   for (int k = 0; k <= 200; ++k) {
@@ -447,7 +456,8 @@ TEST(WheelDelta, ComposedAtReadingTimesIsIntegratingThrough) {
   for (int trial = 0; trial < 20; ++trial) {
     const WheelOdometry odo = randomEncoderDrive(rng);
     const WheelCalibration c =
-        trial % 2 ? WheelCalibration(0.02 * u(rng), 0.02 * u(rng), 0.05 * u(rng)) : WheelCalibration::Zero();
+        trial % 2 ? WheelCalibration(Eigen::Vector3d(0.02, 0.02, 0.05).cwiseProduct(drawVector<3>(u, rng)))
+                  : WheelCalibration::Zero();
     // Cuts at reading times (0.02 s apart), the whole 4 s in four to six deltas.
     std::vector<double> cuts = {0.0};
     while (cuts.back() < 3.4) cuts.push_back(cuts.back() + 0.02 * (20 + trial % 7 * 5));

@@ -52,7 +52,7 @@ TEST(CeresCosts, GradientCheckerPasses) {
   int probes = 0;
   for (const test::Observation& o : ba.observations) {
     if (probes++ >= 200) break;
-    Eigen::Vector3d x = ba.poses[o.pose] + 0.01 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    Eigen::Vector3d x = ba.poses[o.pose] + 0.01 * test::drawVector<3>(u, rng);
     Eigen::Vector3d P = ba.points[o.point];
     const double* params[] = {x.data(), P.data()};
     ceres::NumericDiffOptions nd;
@@ -64,8 +64,7 @@ TEST(CeresCosts, GradientCheckerPasses) {
     EXPECT_TRUE(check_m.Probe(params, 1e-7, &results)) << results.error_log;
     Eigen::Vector3d z3;
     stereo.predict(x, P, &z3);
-    const ceres_adapters::Se2XyzCost<3> cost_s(stereo, z3 + Eigen::Vector3d(u(rng), u(rng), u(rng)),
-                                               Eigen::Matrix3d::Identity());
+    const ceres_adapters::Se2XyzCost<3> cost_s(stereo, z3 + test::drawVector<3>(u, rng), Eigen::Matrix3d::Identity());
     ceres::GradientChecker check_s(&cost_s, &manifolds, nd);
     EXPECT_TRUE(check_s.Probe(params, 1e-7, &results)) << results.error_log;
   }
@@ -136,7 +135,7 @@ TEST(CeresBarronLoss, RobustRegistrationWithFortyPercentOutliers) {
   const Eigen::Vector3d truth(0.7, -0.4, 0.5);
   std::vector<Eigen::Vector2d> src, dst;
   for (int i = 0; i < 100; ++i) {
-    const Eigen::Vector2d s(u(rng), u(rng));
+    const Eigen::Vector2d s = test::drawVector<2>(u, rng);
     Eigen::Vector2d d = rotation2(truth.z()) * s + truth.head<2>();
     if (i % 5 < 2) {  // 40 %: gross outliers, 20 to 50 units away in a random direction
       const double a = ang(rng);
@@ -165,7 +164,7 @@ TEST(CeresBarronLoss, AlphaRefreshedBetweenIterations) {
   const Eigen::Vector3d truth(0.2, 0.1, -0.3);
   std::vector<Eigen::Vector2d> src, dst;
   for (int i = 0; i < 60; ++i) {
-    src.emplace_back(u(rng), u(rng));
+    src.push_back(test::drawVector<2>(u, rng));
     dst.push_back(rotation2(truth.z()) * src.back() + truth.head<2>() +
                   (i % 4 == 0 ? Eigen::Vector2d(15, -9) : Eigen::Vector2d::Zero()));
   }
@@ -393,7 +392,7 @@ CalibrationRun calibrationRun(bool counting, const Eigen::Vector3d& step, int wi
   CalibrationRun run;
   run.est.counting = counting;
   for (int w = 0; w < windows; ++w) {
-    const Eigen::Vector3d d = truth + data_sigma.cwiseProduct(Eigen::Vector3d(n01(rng), n01(rng), n01(rng)));
+    const Eigen::Vector3d d = truth + data_sigma.cwiseProduct(test::drawVector<3>(n01, rng));
     run.data.push_back(d);
     const Eigen::Matrix3d data_info = data_sigma.array().square().inverse().matrix().asDiagonal();
     Eigen::Vector3d c = run.est.c;

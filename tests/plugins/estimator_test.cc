@@ -26,8 +26,10 @@ cv::Mat texture(unsigned seed, int w = 640, int h = 480) {
   std::uniform_int_distribution<int> x(0, w - 1), y(0, h - 1), size(6, 30), grey(0, 255);
   cv::Mat img(h, w, CV_8U, cv::Scalar(128));
   for (int i = 0; i < 700; ++i) {
-    const cv::Point p(x(rng), y(rng));
-    cv::rectangle(img, p, p + cv::Point(size(rng), size(rng)), cv::Scalar(grey(rng)), cv::FILLED);
+    // Drawn as gcc did (tests/common/draw.h): a call's arguments last first.
+    const int py = y(rng), px = x(rng), shade = grey(rng), height = size(rng), width = size(rng);
+    const cv::Point p(px, py);
+    cv::rectangle(img, p, p + cv::Point(width, height), cv::Scalar(shade), cv::FILLED);
   }
   cv::GaussianBlur(img, img, cv::Size(3, 3), 0.8);
   return img;

@@ -81,7 +81,7 @@ TEST(G2oEdges, NumericLinearisationAgreesWithAnalytic) {
   int n = 0;
   for (const test::Observation& o : ba.observations) {
     if (n++ >= 300) break;
-    auto v0 = poseVertex(0, ba.poses[o.pose] + 0.01 * Eigen::Vector3d(u(rng), u(rng), u(rng)));
+    auto v0 = poseVertex(0, ba.poses[o.pose] + 0.01 * test::drawVector<3>(u, rng));
     auto v1 = pointVertex(1, ba.points[o.point]);
     EdgeSE2XYZ<2> e(core);
     e.setVertex(0, v0);
@@ -128,8 +128,9 @@ TEST(G2oEdges, PlanarPriorOnSE3ExpmapAgreesWithNumeric) {
   double worst = 0;
   for (int i = 0; i < 200; ++i) {
     Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
+    const Eigen::Vector2d tilt = 0.2 * test::drawVector<2>(u, rng);
     T_w_b.linear() =
-        Eigen::AngleAxisd(3 * u(rng), Eigen::Vector3d(0.2 * u(rng), 0.2 * u(rng), 1).normalized()).toRotationMatrix();
+        Eigen::AngleAxisd(3 * u(rng), Eigen::Vector3d(tilt.x(), tilt.y(), 1).normalized()).toRotationMatrix();
     T_w_b.translation() << 5 * u(rng), 5 * u(rng), 0.3 * u(rng);
     auto v = std::make_shared<g2o::VertexSE3Expmap>();
     v->setId(0);

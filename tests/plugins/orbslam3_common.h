@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "../common/cameras.h"
+#include "../common/draw.h"
 #include "rvwo/edges/se2.h"
 
 namespace rvwo::test {

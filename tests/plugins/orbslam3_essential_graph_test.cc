@@ -121,8 +121,8 @@ struct Circle {
     for (int k = 0; k < kKeyFrames; ++k) {
       if (k > 0) {
         const Eigen::Vector3d step = (drive(0.5 * (k - 1)).inverse() * drive(0.5 * k)).log();
-        x = x *
-            SE2::exp(Eigen::Vector3d(1.015 * step.x() + 0.002 * g(rng), step.y() + 0.002 * g(rng), step.z() + 0.001));
+        const Eigen::Vector2d n = rvwo::test::drawVector<2>(g, rng);
+        x = x * SE2::exp(Eigen::Vector3d(1.015 * step.x() + 0.002 * n.x(), step.y() + 0.002 * n.y(), step.z() + 0.001));
       }
       Eigen::Isometry3d T = cameraPose(x, T_b_c);
       if (k > 0)
@@ -186,7 +186,8 @@ struct Circle {
         MapPoint& mp = *mps.back();
         mp.reference = kfs[k].get();
         const double z = 2.5 + 1.5 * u(rng);
-        mp.P = (isometryOf(kfs[k]->pose).inverse() * Eigen::Vector3d(u(rng) * z / 2, u(rng) * z / 3, z)).cast<float>();
+        const Eigen::Vector2d uv = rvwo::test::drawVector<2>(u, rng);
+        mp.P = (isometryOf(kfs[k]->pose).inverse() * Eigen::Vector3d(uv.x() * z / 2, uv.y() * z / 3, z)).cast<float>();
         map.points.push_back(&mp);
       }
     fused = mps[3 * 10].get();  // referred to keyframe 10

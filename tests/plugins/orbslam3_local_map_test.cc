@@ -142,7 +142,8 @@ struct Scene {
       // In view of a keyframe of the middle, then seen by every keyframe it projects into.
       const Eigen::Isometry3d T_w_c = rvwo::orbslam3::isometryOf(kfs[3 + i % 6]->pose).inverse();
       const double z = depth(rng);
-      truth_P.push_back(T_w_c * Eigen::Vector3d(u(rng) * 0.6 * z, u(rng) * 0.45 * z, z));
+      const Eigen::Vector2d uv = rvwo::test::drawVector<2>(u, rng);
+      truth_P.push_back(T_w_c * Eigen::Vector3d(uv.x() * 0.6 * z, uv.y() * 0.45 * z, z));
       mps.push_back(std::make_unique<MapPoint>());
       MapPoint& mp = *mps.back();
       mp.mnId = static_cast<unsigned long>(1000 + i);
@@ -182,11 +183,12 @@ struct Scene {
     std::mt19937_64 rng(seed);
     std::normal_distribution<double> g(0, 1);
     for (int k = 4; k < kKeyFrames; ++k) {
-      Eigen::Isometry3d T = cameraPose(drive(0.1 * k) * rvwo::SE2(0.04 * g(rng), 0.03 * g(rng), 0.05 * g(rng)), T_b_c);
+      const Eigen::Vector3d n = Eigen::Vector3d(0.04, 0.03, 0.05).cwiseProduct(rvwo::test::drawVector<3>(g, rng));
+      Eigen::Isometry3d T = cameraPose(drive(0.1 * k) * rvwo::SE2::fromVector(n), T_b_c);
       T.translation() += Eigen::Vector3d(0.0, 0.02, 0.0);  // camera y: down, off the plane
       kfs[k]->pose = rvwo::orbslam3::poseOf<Pose>(T);
     }
-    for (auto& mp : mps) mp->P += Eigen::Vector3f(0.03f * g(rng), 0.03f * g(rng), 0.03f * g(rng));
+    for (auto& mp : mps) mp->P += (static_cast<double>(0.03f) * rvwo::test::drawVector<3>(g, rng)).cast<float>();
   }
 };
 
@@ -612,7 +614,8 @@ struct Blackout {
       mps.push_back(std::make_unique<MapPoint>());
       MapPoint& mp = *mps.back();
       mp.mnId = static_cast<unsigned long>(1 + i);
-      mp.P = (T_b_c.inverse() * Eigen::Vector3d(x(rng), y(rng), z(rng))).cast<float>();  // ORB-SLAM3's world
+      const double pz = z(rng), py = y(rng), px = x(rng);                    // drawn as gcc did (tests/common/draw.h)
+      mp.P = (T_b_c.inverse() * Eigen::Vector3d(px, py, pz)).cast<float>();  // ORB-SLAM3's world
       KeyFrame& kf = i % 2 ? covisible : reference;
       if (!project(rvwo::orbslam3::isometryOf(kf.pose), mp.P.cast<double>())) continue;
       kf.matches.push_back(&mp);
@@ -635,7 +638,8 @@ struct Blackout {
     }
     for (int i = 0; i < 50; ++i) {  // features of nothing in the map
       cv::KeyPoint kp;
-      kp.pt = cv::Point2f(static_cast<float>(640 * coin(rng)), static_cast<float>(480 * coin(rng)));
+      const double cy = coin(rng), cx = coin(rng);  // drawn as gcc did (tests/common/draw.h)
+      kp.pt = cv::Point2f(static_cast<float>(640 * cx), static_cast<float>(480 * cy));
       frame.mvKeysUn.push_back(kp);
       frame.mvuRight.push_back(-1);
       frame.descriptor.push_back(0);

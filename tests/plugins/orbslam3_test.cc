@@ -253,7 +253,8 @@ struct StereoFrame {
     const Eigen::Isometry3d T_w_c = cameraPose(x_true, T_b_c).inverse();
     for (int k = 0; k < n; ++k) {
       const double z = depth(rng);
-      const Eigen::Vector3d P_c(u(rng) * 0.7 * z, u(rng) * 0.5 * z, z);
+      const Eigen::Vector2d uv = rvwo::test::drawVector<2>(u, rng);
+      const Eigen::Vector3d P_c(uv.x() * 0.7 * z, uv.y() * 0.5 * z, z);
       PoseMatch m;
       m.P_w = T_w_c * P_c;
       m.level = k % 3;
@@ -394,7 +395,8 @@ double spinKeyframeError(int spin_min_frames, int* wheel_edges) {
   std::vector<Eigen::Vector3d> P_w;
   for (int i = 0; i < 200; ++i) {
     const double z = depth(rng);
-    P_w.push_back(T_w_c_stand * Eigen::Vector3d(u(rng) * 0.7 * z, u(rng) * 0.5 * z, z));
+    const Eigen::Vector2d uv = rvwo::test::drawVector<2>(u, rng);
+    P_w.push_back(T_w_c_stand * Eigen::Vector3d(uv.x() * 0.7 * z, uv.y() * 0.5 * z, z));
   }
   const auto see = [&](double t, int i, double noise, PoseMatch* m) {
     const Eigen::Vector3d P_c = cameraPose(truth(t), T_b_c) * P_w[i];

@@ -47,7 +47,10 @@ struct World {
 
   explicit World(int n_points = 300) {
     std::uniform_real_distribution<double> x(2.0, 14.0), y(-6.0, 6.0), z(-0.5, 2.5);
-    for (int i = 0; i < n_points; ++i) points.emplace_back(x(rng), y(rng), z(rng));
+    for (int i = 0; i < n_points; ++i) {
+      const double pz = z(rng), py = y(rng), px = x(rng);  // drawn as gcc did (tests/common/draw.h)
+      points.emplace_back(px, py, pz);
+    }
   }
 
   WheelDelta claim(double t0, const SE2& T_b0_b1) {
@@ -92,7 +95,7 @@ struct World {
       PoseObservation o;
       o.P_w = P;
       o.stereo = stereo_camera;
-      o.z = h + Eigen::Vector3d(g(rng), g(rng), g(rng));
+      o.z = h + test::drawVector<3>(g, rng);
       e.observations.push_back(o);
       e.trusted.push_back(1);
     }
@@ -342,8 +345,12 @@ TEST(FrameArbiter, ABlindStretchThatStartsInASlipHoldsThePoseForTheHold) {
   ASSERT_EQ(last_slip, 21);
   const int hold_frames = static_cast<int>(options.hold * kFps);  // 60: frames 22-81
   for (int k = 0; k < static_cast<int>(held.size()); ++k) {
-    if (k < hold_frames - 1) EXPECT_TRUE(held[k]) << "covered frame " << k;
-    if (k > hold_frames + 1) EXPECT_FALSE(held[k]) << "covered frame " << k;
+    if (k < hold_frames - 1) {
+      EXPECT_TRUE(held[k]) << "covered frame " << k;
+    }
+    if (k > hold_frames + 1) {
+      EXPECT_FALSE(held[k]) << "covered frame " << k;
+    }
   }
   // Covered once vision has seen the robot drive on after the spin: the slip is over.
   const std::vector<bool> later = holdsThroughTheCover(options, 25, 40, &last_slip);
@@ -433,8 +440,12 @@ TEST(FrameArbiter, LandmarksThatContradictTheWheelsDoubtThemForTheHold) {
     t += 1.0 / kFps;
     arbiter.decide(coveredFrame(&w, t, x_wheels, SE2()));
     const bool doubted = arbiter.settle(false).wheels_doubted;
-    if (t - 1.0 < options.hold - 0.05) EXPECT_TRUE(doubted) << "blind frame " << k;
-    if (t - 1.0 > options.hold + 0.05) EXPECT_FALSE(doubted) << "blind frame " << k;
+    if (t - 1.0 < options.hold - 0.05) {
+      EXPECT_TRUE(doubted) << "blind frame " << k;
+    }
+    if (t - 1.0 > options.hold + 0.05) {
+      EXPECT_FALSE(doubted) << "blind frame " << k;
+    }
   }
   // Raised again, then a frame vision places ends it.
   arbiter.decide(e);

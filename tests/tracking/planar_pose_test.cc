@@ -35,16 +35,20 @@ struct Scene {
     const Eigen::Isometry3d T_w_c = SE2::fromVector(x_true).isometry3() * T_b_c;
     while (static_cast<int>(obs.size()) < n) {
       const double z = depth(rng);
-      const Eigen::Vector3d P_c(u(rng) * 0.7 * z, u(rng) * 0.5 * z, z);
+      const Eigen::Vector2d uv = test::drawVector<2>(u, rng);
+      const Eigen::Vector3d P_c(uv.x() * 0.7 * z, uv.y() * 0.5 * z, z);
       PoseObservation o;
       o.P_w = T_w_c * P_c;
       o.stereo = obs.size() % 3 != 0;
       o.sigma_px = pyramidSigma(static_cast<int>(obs.size() % 4));
       Eigen::Vector3d h;
       if (!stereo.predict(x_true, o.P_w, &h)) continue;
-      o.z = h + o.sigma_px * Eigen::Vector3d(g(rng), g(rng), g(rng));
+      o.z = h + o.sigma_px * test::drawVector<3>(g, rng);
       const bool bad = coin(rng) < outliers;
-      if (bad) o.z.head<2>() += off(rng) * Eigen::Vector2d(u(rng), u(rng)).normalized();
+      if (bad) {
+        const Eigen::Vector2d way = test::drawVector<2>(u, rng).normalized();
+        o.z.head<2>() += off(rng) * way;
+      }
       if (bad) o.z.z() = o.z.x() - (h.x() - h.z());  // a consistent disparity, a wrong place
       obs.push_back(o);
       is_outlier.push_back(bad);
@@ -245,7 +249,7 @@ TEST(PlanarPose, InformationIsTheInverseOfThePoseScatter) {
     for (PoseObservation& o : s.obs) {
       Eigen::Vector3d h;
       ASSERT_TRUE(s.stereo.predict(x_true, o.P_w, &h));
-      o.z = h + o.sigma_px * Eigen::Vector3d(g(rng), g(rng), g(rng));
+      o.z = h + o.sigma_px * test::drawVector<3>(g, rng);
     }
     Eigen::Vector3d x = x_true + Eigen::Vector3d(0.02, -0.01, 0.01);
     const PlanarPoseResult r = optimisePlanarPose(s.mono, &s.stereo, s.obs, WheelPrior{}, opt, &x);
