@@ -2,7 +2,7 @@
 //
 // BarronKernel::evaluate, inline: a solver calls it once per residual and iteration, and through
 // an adapter's virtual Evaluate an out-of-line call cost more than Ceres' own CauchyLoss
-// (benchmarks/kernels_bench.cc, BM_BarronOverCeres). Included by rvwo/kernels/barron.h only.
+// (docs/decisions/0014). Included by rvwo/kernels/barron.h only.
 #pragma once
 
 #include <cmath>
