@@ -83,23 +83,6 @@ void BM_CeresHuber(benchmark::State& state) {
 }
 BENCHMARK(BM_CeresHuber);
 
-// Ceres' own losses of the Barron kernel's closed shapes, at the scale where they compute the same
-// values as BarronKernel(alpha, 1): Cauchy for alpha = 0 (b = 2 c^2), SoftLOne for alpha = 1
-// (b = c^2). Issue #47's bar: BM_CeresBarron/1 and /0 no slower than these.
-void BM_CeresCauchy(benchmark::State& state) {
-  const ceres::CauchyLoss cauchy(std::sqrt(2.0));
-  const ceres::LossFunction* loss = &cauchy;
-  run(state, [&](double s, double* rho) { loss->Evaluate(s, rho); });
-}
-BENCHMARK(BM_CeresCauchy);
-
-void BM_CeresSoftLOne(benchmark::State& state) {
-  const ceres::SoftLOneLoss soft_l_one(1.0);
-  const ceres::LossFunction* loss = &soft_l_one;
-  run(state, [&](double s, double* rho) { loss->Evaluate(s, rho); });
-}
-BENCHMARK(BM_CeresSoftLOne);
-
 // ns per evaluation of a loss over the 4096 inputs, in one block (the harness' loop body).
 double block(const ceres::LossFunction* loss) {
   const std::vector<double>& s = inputs();
@@ -113,9 +96,10 @@ double block(const ceres::LossFunction* loss) {
   return std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count() / s.size();
 }
 
-// BarronLoss against Ceres' loss of the same shape, timed in alternating blocks, each one's
-// fastest block kept: a virtual machine's speed drifts by 2x within a run, and both see the drift.
-// Counters: barron_ns, ceres_ns and their ratio (issue #47's bar: at most 1).
+// BarronLoss against Ceres' loss of the same shape, at the scale where both compute the same
+// values (Cauchy's b = 2 c^2 for alpha = 0, SoftLOne's b = c^2 for alpha = 1), timed in
+// alternating blocks, each one's fastest block kept: a virtual machine's speed drifts by 2x within
+// a run, and both see the drift. Counters: barron_ns, ceres_ns and their ratio (docs/decisions/0014).
 void BM_BarronOverCeres(benchmark::State& state) {
   const bool cauchy = state.range(0) == 0;
   const rvwo::ceres_adapters::BarronLoss barron(cauchy ? 0.0 : 1.0);
