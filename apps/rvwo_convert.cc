@@ -12,6 +12,10 @@
 //   generic    images.txt ("t path" per line; optional images_right.txt for stereo, depth.txt for
 //              RGB-D with --depth-factor), odometry.csv ("t,x,y,theta" rows, a header line allowed)
 //
+// With a dataset preset (--preset; for TUM also taken from the folder's name, rgbd_dataset_freiburgN_*)
+// it writes settings.yaml beside the rawlog: the camera as the dataset's authors published it
+// (convert/presets.h), and says what the user must still supply.
+//
 // Every list line is checked: a malformed line, a missing image, or odometry whose time does not
 // increase is one error naming the file and the line.
 #include <mrpt/obs/CObservation3DRangeScan.h>
@@ -27,9 +31,12 @@
 #include <map>
 #include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <sstream>
 
+#include "convert/presets.h"
 #include "support/command_line.h"
+#include "support/output.h"
 #include "support/rawlog.h"
 #include "support/trajectory.h"
 
@@ -165,6 +172,15 @@ struct ConvertArgs {
   TCLAP::SwitchArg fisheye{"", "fisheye", "openloris: the T265 fisheye pair instead of RGB-D", cmd};
   TCLAP::ValueArg<double> depth_factor{"", "depth-factor", "generic: depth units per metre (1000)", false, 1000, "f",
                                        cmd};
+  TCLAP::ValueArg<std::string> preset{
+      "",
+      "preset",
+      "the dataset's published camera, written as settings.yaml beside the rawlog: tum fr1|fr2|fr3 (default: from a "
+      "TUM folder's name, rgbd_dataset_freiburgN_...)",
+      false,
+      "",
+      "name",
+      cmd};
 };
 
 // A dataset's records, gathered in time order, then written as one rawlog.
@@ -285,11 +301,22 @@ void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
   c->groundTruthFrom(in);
 }
 
+// The preset asked for, or the one a TUM folder's name gives; none: nullopt.
+std::optional<rvwo::apps::DatasetPreset> presetOf(ConvertArgs& args, const fs::path& in) {
+  const std::string& kind = args.kind.getValue();
+  if (args.preset.isSet()) return rvwo::apps::datasetPreset(kind, args.preset.getValue());
+  if (kind == "tum" && !rvwo::apps::tumPresetOfFolder(in).empty())
+    return rvwo::apps::datasetPreset(kind, rvwo::apps::tumPresetOfFolder(in));
+  return std::nullopt;
+}
+
 int convert(ConvertArgs& args) {
   const fs::path in(args.in.getValue());
   if (!(args.depth_factor.getValue() > 0) || !std::isfinite(args.depth_factor.getValue()))
     throw std::invalid_argument("--depth-factor must be > 0 (depth image units per metre: 1000 for millimetres)");
   if (!fs::is_directory(in)) throw std::runtime_error(in.string() + ": folder not found");
+  const auto preset = presetOf(args, in);
+  const fs::path settings = fs::absolute(args.out.getValue()).parent_path() / "settings.yaml";
   Conversion c(args.max_dt.getValue());
   if (args.kind.getValue() == "tum") {
     readTumFolder(in, &c);
@@ -299,6 +326,18 @@ int convert(ConvertArgs& args) {
     readGenericFolder(in, args.depth_factor.getValue(), &c);
   }
   c.write(args.out.getValue(), in);
+  if (preset) {
+    rvwo::apps::writePresetSettings(*preset, settings);
+    std::printf("rvwo-convert: %s: the camera of preset %s (%s)\n", settings.string().c_str(), preset->name.c_str(),
+                preset->title.c_str());
+    if (!preset->still_to_supply.empty())
+      std::printf("rvwo-convert: still to supply: %s\n", preset->still_to_supply.c_str());
+  } else {
+    std::printf("rvwo-convert: no settings written: %s\n",
+                args.kind.getValue() == "tum"
+                    ? "give --preset fr1, fr2 or fr3 (the folder's name names no Freiburg rig)"
+                    : "write them for your camera (docs/rawlog.md)");
+  }
   return 0;
 }
 

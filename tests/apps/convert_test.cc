@@ -7,10 +7,14 @@
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CObservationStereoImages.h>
+#include <sys/wait.h>
 
+#include <array>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <opencv2/core/persistence.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
@@ -80,6 +84,60 @@ TEST(Convert, TumRgbdFolder) {
   s->intensityImage.forceLoad();
   EXPECT_EQ(s->intensityImage.getWidth(), 32u);
   EXPECT_TRUE(fs::exists(out.parent_path() / "groundtruth.txt"));
+}
+
+// A TUM folder as the dataset ships it, one frame, under the given folder name.
+fs::path tumFolder(const std::string& name) {
+  const fs::path d = fresh("rvwo_conv_presets") / name;
+  fs::create_directories(d);
+  std::ofstream(d / "rgb.txt") << "# color images\n# file: '" << name << ".bag'\n# timestamp filename\n"
+                               << "1305031102.175304 rgb/1305031102.175304.png\n";
+  std::ofstream(d / "depth.txt") << "# depth maps\n# file: '" << name << ".bag'\n# timestamp filename\n"
+                                 << "1305031102.160407 depth/1305031102.160407.png\n";
+  image(d / "rgb" / "1305031102.175304.png", 100);
+  image(d / "depth" / "1305031102.160407.png", 5000, CV_16UC1);
+  return d;
+}
+
+// Each Freiburg rig's colour camera as the TUM RGB-D benchmark publishes it ("Intrinsic Camera
+// Calibration of the Kinect": fx fy cx cy d0 d1 d2 d3 d4), written as settings.yaml beside the
+// rawlog; the rig from the folder's name, or --preset.
+TEST(Convert, TumPresetsWriteThePublishedCalibration) {
+  const std::map<std::string, std::array<double, 9>> published = {
+      {"fr1", {517.3, 516.5, 318.6, 255.3, 0.2624, -0.9531, -0.0054, 0.0026, 1.1633}},
+      {"fr2", {520.9, 521.0, 325.1, 249.7, 0.2312, -0.7849, -0.0033, -0.0001, 0.9172}},
+      {"fr3", {535.4, 539.2, 320.1, 247.6, 0, 0, 0, 0, 0}}};
+  const char* keys[9] = {"Camera1.fx", "Camera1.fy", "Camera1.cx", "Camera1.cy", "Camera1.k1",
+                         "Camera1.k2", "Camera1.p1", "Camera1.p2", "Camera1.k3"};
+  for (const auto& [rig, values] : published) {
+    const fs::path d = tumFolder("rgbd_dataset_freiburg" + rig.substr(2) + "_desk");
+    const fs::path out = d.parent_path() / "out" / "sequence.rawlog";
+    std::string err;
+    ASSERT_EQ(convert("tum --in " + d.string() + " --out " + out.string(), &err), 0) << err;
+    cv::FileStorage fs((out.parent_path() / "settings.yaml").string(), cv::FileStorage::READ);
+    ASSERT_TRUE(fs.isOpened()) << rig;
+    for (int k = 0; k < 9; ++k) EXPECT_DOUBLE_EQ(double(fs[keys[k]]), values[k]) << rig << " " << keys[k];
+    EXPECT_EQ(std::string(fs["Sensor"]), "rgbd");
+    EXPECT_EQ(double(fs["RGBD.DepthMapFactor"]), 5000.0);
+    EXPECT_EQ(int(fs["Camera.width"]), 640);
+    EXPECT_EQ(int(fs["Camera.height"]), 480);
+    EXPECT_EQ(double(fs["Camera.fps"]), 30.0);
+  }
+  // --preset on a folder whose name says nothing; a preset that is not there; none at all.
+  const fs::path plain = tumFolder("my_copy");
+  const fs::path out = plain.parent_path() / "out" / "sequence.rawlog";
+  std::string err;
+  ASSERT_EQ(convert("tum --preset fr2 --in " + plain.string() + " --out " + out.string(), &err), 0) << err;
+  EXPECT_DOUBLE_EQ(
+      double(cv::FileStorage((out.parent_path() / "settings.yaml").string(), cv::FileStorage::READ)["Camera1.fx"]),
+      520.9);
+  fs::remove(out.parent_path() / "settings.yaml");
+  EXPECT_EQ(WEXITSTATUS(convert("tum --preset fr4 --in " + plain.string() + " --out " + out.string(), &err)), 1);
+  EXPECT_EQ(err, "rvwo-convert: error: --preset fr4: tum has the presets fr1, fr2, fr3\n");
+  EXPECT_EQ(WEXITSTATUS(convert("generic --preset fr3 --in " + plain.string() + " --out " + out.string(), &err)), 1);
+  EXPECT_EQ(err, "rvwo-convert: error: --preset fr3: generic has no presets\n");
+  ASSERT_EQ(convert("tum --in " + plain.string() + " --out " + out.string(), &err), 0) << err;
+  EXPECT_FALSE(fs::exists(out.parent_path() / "settings.yaml"));
 }
 
 TEST(Convert, OpenLorisFolderWithOdometry) {

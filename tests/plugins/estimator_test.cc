@@ -360,6 +360,11 @@ TEST(Options, ErrorsNameTheKey) {
   std::string no_fx = y;
   no_fx.replace(no_fx.find("Camera1.fx: 400\n"), 16, "");
   EXPECT_EQ(message(no_fx), "s.yaml: missing key Camera1.fx");
+  // A distorted pinhole (ORB-SLAM3's radial-tangential keys): refused, not ignored. Zeros are fine.
+  EXPECT_EQ(message(y + "Camera1.k1: 0\nCamera1.p2: 0.0026\n"),
+            "s.yaml: Camera1.p2 is not 0: RVWO's estimator takes undistorted pinhole images; undistort them first, "
+            "or replay with --backend orbslam3 (it undistorts keypoints)");
+  EXPECT_EQ(message(y + "Camera1.k1: 0\nCamera1.k2: 0\nCamera1.p1: 0\nCamera1.p2: 0\nCamera1.k3: 0\n"), "no error");
   std::string bad_rot = y;
   bad_rot.replace(bad_rot.find("[0, 0, 1,"), 9, "[0, 0, 2,");
   EXPECT_NE(message(bad_rot).find("Camera.T_b_c is not a rigid transform"), std::string::npos);

@@ -73,6 +73,13 @@ Rig readRig(const Settings& s) {
   if (!(fx > 0 && fy > 0)) throw std::invalid_argument(s.path() + ": Camera1.fx and Camera1.fy must be > 0");
   const std::string type = s.text("Camera.type").value_or("PinHole");
   if (type == "PinHole") {
+    // ORB-SLAM3's radial-tangential keys: this estimator's front end takes undistorted images only.
+    for (const char* k : {"Camera1.k1", "Camera1.k2", "Camera1.p1", "Camera1.p2", "Camera1.k3"}) {
+      if (s.number(k).value_or(0.0) != 0.0)
+        throw std::invalid_argument(s.path() + ": " + k +
+                                    " is not 0: RVWO's estimator takes undistorted pinhole images; undistort them "
+                                    "first, or replay with --backend orbslam3 (it undistorts keypoints)");
+    }
     rig.camera = std::make_shared<PinholeCamera>(fx, fy, cx, cy);
   } else if (type == "KannalaBrandt8") {
     rig.camera = std::make_shared<KannalaBrandtCamera>(fx, fy, cx, cy, s.requireNumber("Camera1.k1"),

@@ -1,0 +1,37 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+//
+// Dataset presets for rvwo-convert: each public dataset's camera as its authors published it, and
+// the settings file (docs/rawlog.md) rvwo-replay takes with the converted rawlog.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace rvwo::apps {
+
+struct DatasetPreset {
+  std::string kind;                       // rvwo-convert's folder kind: "tum", "openloris"
+  std::string name;                       // --preset: "fr1", ...
+  std::string title;                      // what it is, for the settings' first lines
+  std::string source;                     // where its figures were published
+  std::string sensor;                     // Sensor: "rgbd", "stereo", "mono"
+  int width = 0, height = 0;              // px [Camera.width, Camera.height]
+  double fps = 0;                         // Hz [Camera.fps]
+  double fx = 0, fy = 0, cx = 0, cy = 0;  // px [Camera1.fx ...]
+  std::array<double, 5> radtan{};         // k1, k2, p1, p2, k3 (OpenCV) [Camera1.k1 ...]; 0: undistorted
+  double depth_factor = 0;                // depth units a metre [RGBD.DepthMapFactor]
+  std::string still_to_supply;            // what the user must still give (printed by rvwo-convert)
+};
+
+// The presets of a folder kind.
+std::vector<DatasetPreset> datasetPresets(const std::string& kind);
+// The preset named `name` of `kind`; throws std::invalid_argument listing the names there are.
+DatasetPreset datasetPreset(const std::string& kind, const std::string& name);
+// The TUM preset a folder's name gives (rgbd_dataset_freiburgN_*), or "" when it gives none.
+std::string tumPresetOfFolder(const std::filesystem::path& folder);
+// Writes the settings file of `p`, whole or not at all.
+void writePresetSettings(const DatasetPreset& p, const std::filesystem::path& file);
+
+}  // namespace rvwo::apps
