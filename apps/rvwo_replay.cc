@@ -59,6 +59,7 @@
 #include "replay/record_checks.h"
 #include "replay/request.h"
 #include "rvwo/semantics/onnx_segmenter.h"
+#include "rvwo/semantics/shipped_model.h"
 #include "support/plot.h"
 #include "support/trajectory.h"
 
@@ -265,6 +266,10 @@ class ReplayApp {
 
   void makeSegmenter() {
     const std::string& seg = req().segmenter;
+    if (!req().labels_out.empty() && (!opt_.semantics || seg == "none"))
+      throw std::invalid_argument(
+          "--labels-out writes a segmenter's labels: it takes no --segmenter none or "
+          "--no-semantics");
     if (!opt_.semantics) {
       seg_name_ = "off (--no-semantics)";
       return;
@@ -274,15 +279,30 @@ class ReplayApp {
       rawlog_labels_ = std::make_shared<rvwo::apps::RawlogLabels>(opt_.priors.classes());
       segmenter_ = rawlog_labels_;
       seg_name_ = "label images from the rawlog";
-    } else if (seg.rfind("onnx:", 0) == 0) {
+    } else if (seg == "onnx" || seg.rfind("onnx:", 0) == 0) {
       rvwo::OnnxSegmenterOptions o;
-      o.model_path = seg.substr(5);
+      o.model_path = seg == "onnx" ? shippedModel() : seg.substr(5);
       o.class_names = opt_.priors.classes();
       segmenter_ = std::make_shared<rvwo::OnnxSegmenter>(o);
-      seg_name_ = "ONNX model " + o.model_path;
+      network_ = true;
+      seg_name_ = std::string(seg == "onnx" ? "the shipped network " : "ONNX model ") + o.model_path;
     } else {
-      throw std::invalid_argument("--segmenter must be rawlog, onnx:<file> or none, not '" + seg + "'");
+      throw std::invalid_argument("--segmenter must be rawlog, onnx, onnx:<file> or none, not '" + seg + "'");
     }
+    if (!req().labels_out.empty()) {
+      label_writer_ = std::make_shared<rvwo::apps::LabelWriter>(segmenter_, req().labels_out);
+      segmenter_ = label_writer_;
+    }
+  }
+
+  // The network RVWO ships, which speaks VOC's classes: the settings' label set must be that one.
+  std::string shippedModel() const {
+    if (opt_.priors.name() != rvwo::kShippedModelLabelSet)
+      throw std::invalid_argument("--segmenter onnx: the shipped network speaks " +
+                                  std::string(rvwo::kShippedModelLabelSet) + ", but " + req().settings +
+                                  " sets Semantics.LabelSet to " + opt_.priors.name() +
+                                  ": give that label set's network as onnx:<file>");
+    return rvwo::shippedModelPath();
   }
 
   void makeBackend() {
@@ -388,7 +408,7 @@ class ReplayApp {
   // Every record of the rawlog, in order, to the backend, past the record clock.
   void replay() {
     rvwo::apps::Prefetcher reader(req().rawlog, camera_label_, odometry_label_, rawlog_labels_ ? labels_label_ : "",
-                                  opt_.mode != rvwo::estimator::Mode::kWheel);
+                                  opt_.mode != rvwo::estimator::Mode::kWheel, network_);
     tty_ = isatty(fileno(stderr)) && !req().quiet;
     t_start_ = std::chrono::steady_clock::now();
     Pacer pacer(realtime_, t_start_);
@@ -530,6 +550,8 @@ class ReplayApp {
     if (rep_.segmentation_failures > 0 && !labelsAbsent())
       std::printf("  keyframes whose labels could not be used: %zu (they went unlabelled; the first: %s)\n",
                   rep_.segmentation_failures, rep_.segmentation_error.c_str());
+    if (label_writer_)
+      std::printf("  label images written: %zu, in %s\n", label_writer_->written(), label_writer_->folder().c_str());
     reportDecisions();
     using Check = rvwo::apps::StreamCheck::Result;
     std::printf("  rawlog check: %s, %.1f MB in %.2f s\n",
@@ -666,6 +688,8 @@ class ReplayApp {
   rvwo::apps::Alignment alignment_ = rvwo::apps::Alignment::kSE3;
   bool use_orbslam3_ = false, tty_ = false;
   std::shared_ptr<rvwo::Segmenter> segmenter_;
+  std::shared_ptr<rvwo::apps::LabelWriter> label_writer_;  // --labels-out
+  bool network_ = false;  // a network segments the keyframes: it is given the images in colour
   std::shared_ptr<rvwo::apps::RawlogLabels> rawlog_labels_;
   std::unique_ptr<rvwo::estimator::Estimator> estimator_;
 #ifdef RVWO_WITH_ORBSLAM3

@@ -5,8 +5,8 @@
 // 16-bit when the label set has more than 255 classes), optionally an overlay a person can look at,
 // and prints the fraction of pixels of each class found and the time per frame.
 //
-//   rvwo-segment --model deeplabv3_mnv2_voc21.onnx --labels voc21 --image rgb.png
-//                --out labels.png --overlay overlay.png
+//   rvwo-segment --image rgb.png --out labels.png --overlay overlay.png       (the shipped network)
+//   rvwo-segment --model net.onnx --labels ade20k150 --image rgb.png --out labels.png
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -18,6 +18,7 @@
 
 #include "rvwo/kernels/semantic_priors.h"
 #include "rvwo/semantics/onnx_segmenter.h"
+#include "rvwo/semantics/shipped_model.h"
 #include "support/command_line.h"
 
 namespace {
@@ -46,9 +47,13 @@ struct SegmentArgs {
       "share of the pixels and the time per frame. The defaults fit DeepLab-style networks: RGB, NCHW, "
       "(x - 127.5) / 127.5, class scores out.",
       ' ', RVWO_VERSION};
-  TCLAP::ValueArg<std::string> model{"", "model", "the ONNX model", true, "", "file.onnx", cmd};
-  TCLAP::ValueArg<std::string> labels{"",     "labels", "the label set it speaks: voc21, coco80 or ade20k150", true, "",
-                                      "name", cmd};
+  TCLAP::ValueArg<std::string> model{
+      "",    "model", "the ONNX model (default: the one RVWO ships, DeepLabV3 MobileNetV2 on VOC's 21 classes)",
+      false, "",      "file.onnx",
+      cmd};
+  TCLAP::ValueArg<std::string> labels{
+      "",     "labels", "the label set it speaks: voc21, coco80 or ade20k150 (needed with --model)", false, "",
+      "name", cmd};
   TCLAP::ValueArg<std::string> image{"", "image", "the input image (any format OpenCV reads)", true, "", "file", cmd};
   TCLAP::ValueArg<std::string> out{"", "out", "the label image to write (PNG)", true, "", "labels.png", cmd};
   TCLAP::ValueArg<std::string> overlay{
@@ -67,7 +72,7 @@ struct SegmentArgs {
 
 rvwo::OnnxSegmenterOptions optionsOf(SegmentArgs& args, const rvwo::SemanticPriors& priors) {
   rvwo::OnnxSegmenterOptions o;
-  o.model_path = args.model.getValue();
+  o.model_path = args.model.isSet() ? args.model.getValue() : rvwo::shippedModelPath();
   o.class_names = priors.classes();
   o.intra_op_threads = args.threads.getValue();
   if (args.layout.getValue() != "nchw" && args.layout.getValue() != "nhwc")
@@ -119,7 +124,13 @@ cv::Mat paintOverlay(const cv::Mat& img, const cv::Mat& labels, const rvwo::Sema
 // Segments the image (timed over --repeat runs after a warm-up), prints the class shares, writes
 // the label image and the overlay.
 int segmentImage(SegmentArgs& args) {
-  const rvwo::SemanticPriors priors = rvwo::SemanticPriors::builtin(args.labels.getValue());
+  if (args.model.isSet() && !args.labels.isSet())
+    throw std::invalid_argument("--labels: name the label set --model speaks (voc21, coco80 or ade20k150)");
+  if (!args.model.isSet() && args.labels.isSet() && args.labels.getValue() != rvwo::kShippedModelLabelSet)
+    throw std::invalid_argument("--labels " + args.labels.getValue() + ": the shipped network speaks " +
+                                rvwo::kShippedModelLabelSet + " (give --model for another network)");
+  const rvwo::SemanticPriors priors =
+      rvwo::SemanticPriors::builtin(args.labels.isSet() ? args.labels.getValue() : rvwo::kShippedModelLabelSet);
   rvwo::OnnxSegmenter seg(optionsOf(args, priors));  // checks the model first: its errors name what it expected
   const std::string& image = args.image.getValue();
   std::error_code ec;

@@ -45,7 +45,7 @@ if [ "${RVWO_SANITIZERS:-1}" != 0 ]; then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   # The install and package tests link the instrumented libraries into uninstrumented consumers;
   # the checks of the tree (format, sizes, docs) and the set-up's are as in the plain build.
-  skip='install_consumer|deb_package|clang_format|setup_failed_download|code_sizes|cited_docs|readme_'
+  skip='install_consumer|deb_package|shipped_model_installed|clang_format|setup_failed_download|code_sizes|cited_docs|readme_'
   if [ $ci = 1 ]; then tiers=unit; else tiers='unit|system'; fi
   stamp "ASan + UBSan build (build-asan/): $tiers"
   # Asserts on (Eigen's among them), -O1 with line tables only (enough for the stack traces).

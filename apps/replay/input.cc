@@ -8,8 +8,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
+
+#include "support/output.h"
 
 namespace rvwo::apps {
 
@@ -34,6 +38,35 @@ Segmentation RawlogLabels::segment(const cv::Mat&, const FrameInfo& info) {
   Segmentation s;
   loadImage(image, cv::IMREAD_UNCHANGED).convertTo(s.labels, CV_32S);
   return s;
+}
+
+LabelWriter::LabelWriter(std::shared_ptr<Segmenter> inner, std::string folder)
+    : inner_(std::move(inner)), folder_(std::move(folder)) {
+  std::error_code ec;
+  std::filesystem::create_directories(folder_, ec);
+  if (ec || !std::filesystem::is_directory(folder_))
+    throw std::invalid_argument("--labels-out " + folder_ + ": not a folder that can be made (" +
+                                (ec ? ec.message() : std::string("a file of that name exists")) + ")");
+}
+
+Segmentation LabelWriter::segment(const cv::Mat& image, const FrameInfo& info) {
+  Segmentation s = inner_->segment(image, info);
+  cv::Mat ids;
+  s.labels.convertTo(ids, inner_->classNames().size() > 256 ? CV_16U : CV_8U);
+  char name[64];
+  std::snprintf(name, sizeof name, "%.6f", info.timestamp);
+  const std::string file = (std::filesystem::path(folder_) / (std::string(name) + ".png")).string();
+  writeWhole(file, [&](const std::string& tmp) {
+    if (!cv::imwrite(tmp, ids)) throw std::runtime_error("--labels-out: cannot write " + file);
+  });
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++written_;
+  return s;
+}
+
+std::size_t LabelWriter::written() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return written_;
 }
 
 bool RawlogSurvey::has(const std::string& label) const {
@@ -82,12 +115,13 @@ RawlogSurvey surveyRawlog(const std::string& path, const std::vector<std::string
 }
 
 Prefetcher::Prefetcher(const std::string& path, std::string camera_label, std::string odometry_label,
-                       std::string labels_label, bool want_images)
+                       std::string labels_label, bool want_images, bool colour)
     : reader_(path),
       camera_(std::move(camera_label)),
       odometry_(std::move(odometry_label)),
       labels_(std::move(labels_label)),
-      want_images_(want_images) {
+      want_images_(want_images),
+      left_flags_(colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE) {
   thread_ = std::thread([this] { run(); });
 }
 
@@ -176,10 +210,10 @@ estimator::FrameInput Prefetcher::frameOf(const mrpt::obs::CObservation::Ptr& ob
   f.timestamp = t;
   if (!want_images_) return f;
   if (auto st = std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(obs)) {
-    f.image = loadImage(st->imageLeft, cv::IMREAD_GRAYSCALE);
+    f.image = loadImage(st->imageLeft, left_flags_);
     if (st->hasImageRight) f.right = loadImage(st->imageRight, cv::IMREAD_GRAYSCALE);
   } else if (auto rgbd = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(obs)) {
-    if (rgbd->hasIntensityImage) f.image = loadImage(rgbd->intensityImage, cv::IMREAD_GRAYSCALE);
+    if (rgbd->hasIntensityImage) f.image = loadImage(rgbd->intensityImage, left_flags_);
     if (rgbd->hasRangeImage) {
       rgbd->load();  // external range images
       cv::Mat depth(rgbd->rangeImage.rows(), rgbd->rangeImage.cols(), CV_32F);
@@ -189,7 +223,7 @@ estimator::FrameInput Prefetcher::frameOf(const mrpt::obs::CObservation::Ptr& ob
       f.depth = depth;  // metres: the estimator's depth factor is set to 1 for rawlogs
     }
   } else if (auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs)) {
-    f.image = loadImage(im->image, cv::IMREAD_GRAYSCALE);
+    f.image = loadImage(im->image, left_flags_);
   } else {
     throw std::runtime_error("sensor " + camera_ + " is not a camera observation");
   }

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <deque>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -43,6 +44,25 @@ class RawlogLabels final : public Segmenter {
   std::vector<std::string> classes_;
   mutable std::mutex mutex_;
   std::map<double, mrpt::img::CImage> labels_;
+};
+
+// Passes frames to another segmenter and writes each label image it returns to a folder, as
+// <timestamp>.png of class ids (8-bit; 16-bit beyond 255 classes): what the keyframes were labelled
+// with (--labels-out). Each file appears whole (support/output.h).
+class LabelWriter final : public Segmenter {
+ public:
+  // Throws std::invalid_argument when the folder cannot be made.
+  LabelWriter(std::shared_ptr<Segmenter> inner, std::string folder);
+  Segmentation segment(const cv::Mat& image, const FrameInfo& info) override;
+  const std::vector<std::string>& classNames() const override { return inner_->classNames(); }
+  std::size_t written() const;
+  const std::string& folder() const { return folder_; }
+
+ private:
+  std::shared_ptr<Segmenter> inner_;
+  std::string folder_;
+  mutable std::mutex mutex_;
+  std::size_t written_ = 0;
 };
 
 // What the reader thread hands over, in rawlog order.
@@ -82,9 +102,10 @@ RawlogSurvey surveyRawlog(const std::string& path, const std::vector<std::string
 class Prefetcher {
  public:
   // Records of camera_label, odometry_label and labels_label ("": none) become events; the
-  // camera's images are decoded only when want_images.
+  // camera's images are decoded only when want_images, the (left) one in colour when colour (a
+  // network segments it; features are found on grey either way).
   Prefetcher(const std::string& path, std::string camera_label, std::string odometry_label, std::string labels_label,
-             bool want_images);
+             bool want_images, bool colour = false);
   ~Prefetcher();
   // The next event, or nullopt at the end (error() then says whether the file ended badly).
   std::optional<ReplayEvent> next();
@@ -100,6 +121,7 @@ class Prefetcher {
   RawlogReader reader_;
   const std::string camera_, odometry_, labels_;
   const bool want_images_;
+  const int left_flags_;  // cv::imread's flags for the (left) image
   std::thread thread_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;

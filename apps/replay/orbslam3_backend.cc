@@ -79,6 +79,7 @@ OrbSlam3Backend::OrbSlam3Backend(const estimator::Rig& rig, const estimator::Est
     }
   }
   more.emplace_back("Segmentation.LabelDilation", std::to_string(opt.label_dilation_px));
+  more.emplace_back("Segmentation.Model", "\"none\"");  // the replay's own segmenter, given below, or none
   orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels ? &w : nullptr, more);
   std::printf("rvwo-replay: ORB-SLAM3 settings %s, its console output in %s\n", o.settings.c_str(), o.log.c_str());
   std::snprintf(g_abort_message, sizeof g_abort_message,

@@ -45,11 +45,15 @@ struct ReplayArgs {
   TCLAP::ValueArg<std::string> segmenter{
       "",
       "segmenter",
-      "labels for keyframes: rawlog (the LABELS images in the rawlog, default when present), onnx:<model.onnx> "
-      "(a network, e.g. ../shared/models/deeplabv3_mnv2_voc21.onnx), or none",
+      "labels for keyframes: rawlog (the LABELS images in the rawlog, default when present), onnx (the network "
+      "RVWO ships: DeepLabV3 MobileNetV2, VOC's 21 classes), onnx:<model.onnx> (another network), or none",
       false,
       "auto",
-      "rawlog|onnx:FILE|none",
+      "rawlog|onnx|onnx:FILE|none",
+      cmd};
+  TCLAP::ValueArg<std::string> labels_out{
+      "",    "labels-out", "also write each segmented keyframe's labels to this folder: <timestamp>.png, class ids",
+      false, "",           "DIR",
       cmd};
   TCLAP::SwitchArg deterministic{"", "deterministic",
                                  "one thread, mapping and segmentation inline: same input, same output", cmd};
@@ -88,7 +92,7 @@ struct ReplayArgs {
 
 // What the command line asked for, as plain values.
 struct ReplayRequest {
-  std::string settings, rawlog, out, gt, mode, kernel, segmenter, plot, align, backend = "rvwo", vocabulary;
+  std::string settings, rawlog, out, gt, mode, kernel, segmenter, labels_out, plot, align, backend = "rvwo", vocabulary;
   bool no_semantics = false, deterministic = false, quiet = false, realtime_set = false;
   double realtime = 0;
 
@@ -100,6 +104,7 @@ struct ReplayRequest {
         mode(a.mode.getValue()),
         kernel(a.kernel.getValue()),
         segmenter(a.segmenter.getValue()),
+        labels_out(a.labels_out.getValue()),
         plot(a.plot.getValue()),
         align(a.align.getValue()),
 #ifdef RVWO_WITH_ORBSLAM3

@@ -753,21 +753,39 @@ TEST(WheelInputLabels, KeyframeLabelsRejectAWalkersPointsAndKeepTheRest) {
   std::filesystem::remove(path);
 }
 
-// The network named in the settings (Segmentation.Model) on a real TUM frame: keypoints on the
-// walking person lose their weight, those on the room keep it.
-TEST(WheelInputLabels, NetworkFromTheSettingsLabelsARealWalker) {
-  const std::string shared = RVWO_SHARED_DIR;
-  const std::string model = shared + "/models/deeplabv3_mnv2_voc21.onnx";
-  if (!std::filesystem::exists(model)) GTEST_SKIP() << "../shared is absent: no real model to run";
+// Settings that name no network (Segmentation.Model unset): the one RVWO ships, on a real TUM
+// frame: keypoints on the walking person lose their weight, those on the room keep it. "none" and
+// a label set the shipped network does not speak are the settings' to say.
+TEST(WheelInputLabels, ShippedNetworkLabelsARealWalkerWhenTheSettingsNameNone) {
   const std::string path = rvwo::test::scratch("network.yaml").string();
-  std::ofstream(path) << "%YAML:1.0\nCamera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
-                         "   data: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n"
-                         "Segmentation.Model: \""
-                      << model << "\"\n";
+  auto settingsWith = [&](const std::string& line) {
+    std::ofstream(path) << "%YAML:1.0\nCamera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+                           "   data: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n"
+                        << line << "\n";
+    return path;
+  };
+  {
+    WheelInput none;
+    none.configure(settingsWith("Segmentation.Model: \"none\""));
+    EXPECT_TRUE(none.active());
+    EXPECT_FALSE(none.segments());
+    WheelInput coco;
+    try {
+      coco.configure(settingsWith("Semantics.LabelSet: \"coco80\""));
+      ADD_FAILURE() << "a coco80 label set took the voc21 network";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("Segmentation.Model: unset, and the network RVWO ships speaks voc21"),
+                std::string::npos)
+          << e.what();
+    }
+  }
   WheelInput w;
-  w.configure(path);
+  w.configure(settingsWith(""));
   std::filesystem::remove(path);
   ASSERT_TRUE(w.segments());
+  const std::string shared = RVWO_SHARED_DIR;
+  if (!std::filesystem::exists(shared + "/data/tum_fr3_walking_xyz"))
+    GTEST_SKIP() << "../shared is absent: no real frame";
   const auto rgb_dir = std::filesystem::path(shared) / "data" / "tum_fr3_walking_xyz" / "rgb";
   const auto frame = *std::filesystem::directory_iterator(rgb_dir);
   const cv::Mat rgb = cv::imread(frame.path().string(), cv::IMREAD_COLOR);

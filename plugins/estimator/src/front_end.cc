@@ -9,7 +9,7 @@ Estimator::Impl::FrontEnd Estimator::Impl::frontEnd(const FrameInput& in) {
   auto t0 = Clock::now();
   Features& f = out.f;
   const cv::Mat raw_grey = toGrey(in.image);
-  out.raw_grey = raw_grey;
+  out.raw_image = in.image;
   cv::Mat grey = raw_grey, grey_right = rig.sensor == Sensor::kStereo ? toGrey(in.right) : cv::Mat();
   if (rig.rectification) {
     const cv::Mat raw_right = grey_right;

@@ -180,10 +180,10 @@ struct Estimator::Impl {
 
   // ---- tracking state (tracking thread only) ----
   // What tracking needs of a frame's images, made without the map: features, their stereo
-  // matches or depth, and the grey image the segmenter will see.
+  // matches or depth, and the image the segmenter will see.
   struct FrontEnd {
     Features f;
-    cv::Mat raw_grey;  // before rectification (labels are rectified after)
+    cv::Mat raw_image;  // as the camera gave it, colour kept for a network (labels are rectified after)
   };
   // Frames waiting for the odometry to pass their time, with their front ends under way.
   struct PendingFrame {
@@ -327,7 +327,7 @@ struct Estimator::Impl {
     std::optional<WheelDelta> delta;  // the wheels since the last frame (none: vo, or no readings)
     SE2 predicted;                    // where they (or the motion model) put the robot
     Features f;
-    cv::Mat raw_grey;
+    cv::Mat raw_image;
     Eigen::Vector3d x = Eigen::Vector3d::Zero();  // the pose being solved
     std::vector<Match> matches;
     std::vector<char> inlier, trusted;  // per match

@@ -171,13 +171,13 @@ void Estimator::Impl::processFrame(const FrameInput& in, std::future<FrontEnd> f
   }
   FrontEnd fe = front_end.valid() ? front_end.get() : frontEnd(in);
   w.f = std::move(fe.f);
-  w.raw_grey = fe.raw_grey;
+  w.raw_image = fe.raw_image;
 
   std::unique_lock<std::mutex> lock(map_mutex);
   if (keyframes.empty() && final_pose.empty()) {
     // The first keyframe at the world's origin, points from stereo or depth (metric: no visual
     // initialisation to check against the wheels).
-    const int made = createKeyFrame(w.t, Eigen::Vector3d::Zero(), std::move(w.f), {}, w.raw_grey);
+    const int made = createKeyFrame(w.t, Eigen::Vector3d::Zero(), std::move(w.f), {}, w.raw_image);
     record.ref_kf = next_kf - 1;
     record.visual = made > 0;
     lock.unlock();
@@ -326,7 +326,7 @@ bool Estimator::Impl::keepFrame(FrameWork* w, FrameRecord* record) {
     for (std::size_t k = 0; w->visual && k < w->matches.size(); ++k) {
       if (!w->inlier[k]) label_only.emplace_back(w->matches[k].feature, w->matches[k].point);
     }
-    createKeyFrame(w->t, T_w_b.vector(), std::move(w->f), point_of, w->raw_grey, w->inliers, on_walker);
+    createKeyFrame(w->t, T_w_b.vector(), std::move(w->f), point_of, w->raw_image, w->inliers, on_walker);
     keyframes.at(next_kf - 1).label_only = std::move(label_only);
     record->ref_kf = next_kf - 1;
     record->T_kf_b = SE2();

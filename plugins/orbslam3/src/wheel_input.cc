@@ -4,6 +4,31 @@
 #include "wheel_input_impl.h"
 
 namespace rvwo::orbslam3 {
+namespace {
+
+// The keyframes' network: Segmentation.Model (relative to the settings file), the one RVWO ships
+// when it is unset, none when it is "none". Throws std::invalid_argument or what loading throws.
+std::shared_ptr<Segmenter> keyFrameSegmenter(const Settings& s, const SemanticPriors& priors) {
+  if (s.text("Segmentation.Model") == std::optional<std::string>("none")) return nullptr;
+  OnnxSegmenterOptions o;
+  o.class_names = priors.classes();
+  if (const auto model = s.file("Segmentation.Model")) {
+    o.model_path = *model;
+  } else if (priors.name() == kShippedModelLabelSet) {
+    o.model_path = shippedModelPath();
+  } else {
+    throw std::invalid_argument("unset, and the network RVWO ships speaks " + std::string(kShippedModelLabelSet) +
+                                ", not the Semantics.LabelSet " + priors.name() +
+                                ": name that label set's network, or \"none\"");
+  }
+  try {
+    return std::make_shared<OnnxSegmenter>(o);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(o.model_path + ": " + e.what());
+  }
+}
+
+}  // namespace
 
 WheelInput::WheelInput() = default;
 WheelInput::~WheelInput() = default;
@@ -62,17 +87,11 @@ void WheelInput::configure(const std::string& settings_path) {
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(settings_path + ": " + e.what());
   }
-  // A network for the keyframes' labels, named in the settings (relative to the settings file).
-  if (const auto model = s.file("Segmentation.Model")) {
-    OnnxSegmenterOptions o;
-    o.model_path = *model;
-    o.class_names = impl_->priors.classes();
-    try {
-      setSegmenter(std::make_shared<OnnxSegmenter>(o));
-    } catch (const std::exception& e) {
-      impl_.reset();
-      throw std::invalid_argument(settings_path + ": Segmentation.Model " + o.model_path + ": " + e.what());
-    }
+  try {
+    if (auto segmenter = keyFrameSegmenter(s, impl_->priors)) setSegmenter(segmenter);
+  } catch (const std::exception& e) {
+    impl_.reset();
+    throw std::invalid_argument(settings_path + ": Segmentation.Model: " + e.what());
   }
 }
 

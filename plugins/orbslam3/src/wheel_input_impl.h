@@ -28,6 +28,7 @@
 #include "rvwo/semantics/async_segmenter.h"
 #include "rvwo/semantics/label_lookup.h"
 #include "rvwo/semantics/onnx_segmenter.h"
+#include "rvwo/semantics/shipped_model.h"
 #include "rvwo/settings/settings.h"
 #include "rvwo/tracking/frame_arbiter.h"
 #include "rvwo/tracking/planar_pose.h"

@@ -128,7 +128,8 @@ struct WheelInputParams {
   double graph_sigma_yaw = 0.002;  // rad: its heading [LoopClosing.SigmaYaw]
   int label_dilation_px = 8;       // dynamic classes' masks widened by this much [Segmentation.LabelDilation]
   // Segmentation.Model: an ONNX network for the keyframes' labels (a path relative to the settings
-  // file; its classes: the label set), else none unless setSegmenter gives one.
+  // file; its classes: the label set); unset: the network RVWO ships (voc21); "none": no network
+  // unless setSegmenter gives one.
   // The label set and its priors: Semantics.LabelSet, Semantics.Prior.<class> (voc21 by default).
   // Noise densities of the odometry [Odometry.Noise*] and the reliability model [Reliability.*]
   // are read from the settings into the plugin's own (C++17) types.
