@@ -10,7 +10,8 @@
 //              or with --fisheye, fisheye1.txt + fisheye2.txt (stereo); odom.txt (t, pose, twist);
 //              groundtruth.txt
 //   generic    images.txt ("t path" per line; optional images_right.txt for stereo, depth.txt for
-//              RGB-D with --depth-factor), odometry.csv ("t,x,y,theta" rows, a header line allowed)
+//              RGB-D with --depth-factor), odometry.csv ("t,x,y,theta" rows; a header line may name
+//              other columns: wheel angles left_angle,right_angle or speeds v,omega)
 //
 // With a dataset preset (--preset; for TUM also taken from the folder's name, rgbd_dataset_freiburgN_*)
 // it writes settings.yaml beside the rawlog: the camera as the dataset's authors published it
@@ -96,11 +97,18 @@ std::vector<Entry> readList(const fs::path& folder, const std::string& name, boo
 }
 
 struct Odometry {
-  double t, x, y, theta;
+  double t = 0, x = 0, y = 0, theta = 0;  // s; the odometry's pose, m and rad
+  bool pose = true, angles = false, twist = false;
+  std::int32_t ticks_left = 0, ticks_right = 0;  // wheel angles as encoder ticks, kTicksPerRevolution a turn
+  double v = 0, omega = 0;                       // forward speed (m/s) and turn rate (rad/s)
 };
 
-// odom.txt (OpenLORIS: t x y z qx qy qz qw [twist]) or odometry.csv (t,x,y,theta).
-std::vector<Odometry> readOdometry(const fs::path& file, bool quaternion) {
+// Encoder ticks a wheel turn, for wheel angles given in radians (rvwo-bag writes the same into the
+// settings as Odometry.TicksPerRevolution): a power of two, so that ticks scale angles exactly.
+constexpr double kTicksPerRevolution = 65536;
+
+// odom.txt (OpenLORIS: t x y z qx qy qz qw [twist]).
+std::vector<Odometry> readOpenLorisOdometry(const fs::path& file) {
   std::ifstream in(file);
   if (!in) fail(file.string(), "not found");
   std::vector<Odometry> out;
@@ -110,15 +118,82 @@ std::vector<Odometry> readOdometry(const fs::path& file, bool quaternion) {
     const auto f = splitFields(line);
     if (f.empty() || f[0][0] == '#') continue;
     double v[8];
-    const std::size_t need = quaternion ? 8 : 4;
-    bool ok = f.size() >= need;
-    for (std::size_t i = 0; ok && i < need; ++i) ok = number(f[i], &v[i]);
-    if (!ok) {
-      if (n == 1 && !quaternion) continue;  // a CSV header
-      fail(where, quaternion ? "expected 't x y z qx qy qz qw ...'" : "expected 't,x,y,theta' (numbers)");
+    bool ok = f.size() >= 8;
+    for (std::size_t i = 0; ok && i < 8; ++i) ok = number(f[i], &v[i]);
+    if (!ok) fail(where, "expected 't x y z qx qy qz qw ...'");
+    Odometry o;
+    o.t = v[0];
+    o.x = v[1];
+    o.y = v[2];
+    o.theta = 2 * std::atan2(v[6], v[7]);  // yaw of a planar pose (qx, qy ~ 0)
+    if (!out.empty() && !(o.t > out.back().t)) fail(where, "odometry timestamps must increase");
+    out.push_back(o);
+  }
+  if (out.empty()) fail(file.string(), "no odometry");
+  return out;
+}
+
+// odometry.csv's columns: a header line naming them, each among these, in any order; without one
+// (or with a header of other names), t, x, y, theta.
+const std::vector<std::string> kOdometryColumns = {"t", "x", "y", "theta", "left_angle", "right_angle", "v", "omega"};
+
+std::vector<int> namedColumns(const std::vector<std::string>& header, const std::string& where) {
+  std::vector<int> col;
+  for (const std::string& h : header) {
+    const auto it = std::find(kOdometryColumns.begin(), kOdometryColumns.end(), h);
+    if (it == kOdometryColumns.end()) return {0, 1, 2, 3};  // another header: the old layout
+    col.push_back(static_cast<int>(it - kOdometryColumns.begin()));
+  }
+  auto has = [&](int c) { return std::find(col.begin(), col.end(), c) != col.end(); };
+  const bool pose = has(1) && has(2) && has(3), angles = has(4) && has(5), twist = has(6) && has(7);
+  if (!has(0) || (has(1) || has(2) || has(3)) != pose || has(4) != angles || has(5) != angles || has(6) != twist ||
+      has(7) != twist || !(pose || angles || twist))
+    fail(where, "columns: t, and x,y,theta (pose) and/or left_angle,right_angle (rad) and/or v,omega (m/s, rad/s)");
+  return col;
+}
+
+// odometry.csv: the odometry's pose, wheel angles or speeds, by its header (kOdometryColumns).
+std::vector<Odometry> readOdometryCsv(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) fail(file.string(), "not found");
+  std::vector<Odometry> out;
+  std::vector<int> col = {0, 1, 2, 3};
+  bool header = false;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    const std::string where = file.string() + ":" + std::to_string(n);
+    const auto f = splitFields(line);
+    if (f.empty() || f[0][0] == '#') continue;
+    double v[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    if (!header && out.empty() && !number(f[0], &v[0])) {
+      header = true;
+      col = namedColumns(f, where);
+      continue;
     }
-    Odometry o{v[0], v[1], v[2], v[3]};
-    if (quaternion) o.theta = 2 * std::atan2(v[6], v[7]);  // yaw of a planar pose (qx, qy ~ 0)
+    bool ok = f.size() >= col.size();
+    for (std::size_t i = 0; ok && i < col.size(); ++i) ok = number(f[i], &v[col[i]]);
+    if (!ok) {
+      std::string names;
+      for (int c : col) names += (names.empty() ? "" : ",") + kOdometryColumns[c];
+      fail(where, "expected '" + names + "' (numbers)");
+    }
+    Odometry o;
+    o.t = v[0];
+    o.x = v[1];
+    o.y = v[2];
+    o.theta = v[3];
+    o.pose = std::find(col.begin(), col.end(), 1) != col.end();
+    o.angles = std::find(col.begin(), col.end(), 4) != col.end();
+    o.twist = std::find(col.begin(), col.end(), 6) != col.end();
+    if (o.angles) {
+      const double k = kTicksPerRevolution / (2 * M_PI), l = std::round(v[4] * k), r = std::round(v[5] * k);
+      if (std::fabs(l) > INT32_MAX || std::fabs(r) > INT32_MAX)
+        fail(where, "a wheel angle beyond what 32-bit encoder ticks hold (" + std::to_string(INT32_MAX / k) + " rad)");
+      o.ticks_left = static_cast<std::int32_t>(l);
+      o.ticks_right = static_cast<std::int32_t>(r);
+    }
+    o.v = v[6];
+    o.omega = v[7];
     if (!out.empty() && !(o.t > out.back().t)) fail(where, "odometry timestamps must increase");
     out.push_back(o);
   }
@@ -232,6 +307,11 @@ class Conversion {
         obs.sensorLabel = "ODOMETRY";
         obs.timestamp = mrpt::Clock::fromDouble(o.t);
         obs.odometry = mrpt::poses::CPose2D(o.x, o.y, o.theta);
+        obs.hasEncodersInfo = o.angles;
+        obs.encoderLeftTicks = o.ticks_left;
+        obs.encoderRightTicks = o.ticks_right;
+        obs.hasVelocities = o.twist;
+        obs.velocityLocal = mrpt::math::TTwist2D(o.v, 0, o.omega);
         w.write(obs);
       });
       ++odometry_;
@@ -281,11 +361,11 @@ void readOpenLorisFolder(const fs::path& in, bool fisheye, Conversion* c) {
     const auto depth = readList(in, "aligned_depth.txt");
     c->addRgbd(color, depth, 1000.0);
   }
-  c->addOdometry(readOdometry(in / "odom.txt", true));
+  c->addOdometry(readOpenLorisOdometry(in / "odom.txt"));
   c->groundTruthFrom(in);
 }
 
-// Generic: images.txt, and images_right.txt (stereo) or depth.txt (RGB-D); odometry.csv.
+// Generic: images.txt, and images_right.txt (stereo) or depth.txt (RGB-D); odometry.csv if any.
 void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
   const auto left = readList(in, "images.txt");
   const auto right = readList(in, "images_right.txt", false);
@@ -297,7 +377,7 @@ void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
   } else {
     c->addMono(left);
   }
-  c->addOdometry(readOdometry(in / "odometry.csv", false));
+  if (fs::exists(in / "odometry.csv")) c->addOdometry(readOdometryCsv(in / "odometry.csv"));  // else vision only
   c->groundTruthFrom(in);
 }
 

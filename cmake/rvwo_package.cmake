@@ -16,7 +16,10 @@ set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)  # rvwo_<version>_<arch>.deb
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
-set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS "${CPACK_PACKAGING_INSTALL_PREFIX}/${RVWO_PRIVATE_LIBDIR}/onnxruntime/lib")
+# rvwo-bag's Python packages (lib/rvwo/python) are CPython 3.11 wheels: they carry their own libraries.
+set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS "${CPACK_PACKAGING_INSTALL_PREFIX}/${RVWO_PRIVATE_LIBDIR}/onnxruntime/lib"
+  "${CPACK_PACKAGING_INSTALL_PREFIX}/${RVWO_PRIVATE_LIBDIR}/python/numpy.libs")
+set(CPACK_DEBIAN_PACKAGE_DEPENDS "python3 (>= 3.11), python3 (<< 3.12)")
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "libeigen3-dev, libceres-dev, libopencv-dev, libmrpt-dev, nlohmann-json3-dev")
 set(CPACK_STRIP_FILES ON)
 include(CPack)

@@ -10,7 +10,9 @@
 #    suite swapped to trixie; nothing is installed system-wide from Debian 13).
 # 3. g2o unless the system has one: the static C++ libraries, headers and CMake config that the
 #    PyPI wheel g2opy==2.3.0 carries.
-# Steps 2 and 3 unpack into .deps/ (git-ignored; override with RVWO_DEPS_DIR). Idempotent: a
+# 4. A Python environment for rvwo-bag (ROS bags without ROS): the rosbags package and its
+#    dependencies, pinned in scripts/python-requirements.txt, from PyPI wheels.
+# Steps 2 to 4 unpack into .deps/ (git-ignored; override with RVWO_DEPS_DIR). Idempotent: a
 # second run with nothing missing only checks. A failing step prints one line naming it and
 # exits non-zero; its full output is kept in .deps/setup.log.
 set -euo pipefail
@@ -21,7 +23,7 @@ LOG=$DEPS/setup.log
 ORT_WHEEL_VERSION=1.21.1
 ORT_DEB_VERSION=1.21.0+dfsg-1
 G2OPY_VERSION=2.3.0
-DEBIAN_PACKAGES=(build-essential cmake ninja-build pkg-config git python3 python3-pip
+DEBIAN_PACKAGES=(build-essential cmake ninja-build pkg-config git python3 python3-pip python3-venv
   libeigen3-dev libopencv-dev libmrpt-dev libceres-dev libsuitesparse-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev zlib1g-dev clang-format clang libclang-rt-14-dev)
 
@@ -120,5 +122,19 @@ else
   cp -r "$tmp/g2o/include" "$tmp/g2o/lib" "$tmp/g2o/lib64" "$G2O/"
   touch "$G2O/.complete-$G2OPY_VERSION"
   rm -rf "$tmp"; trap - EXIT
+fi
+# ---- 4. Python environment (rvwo-bag) ------------------------------------------------------
+PY=$DEPS/python
+requirements=$ROOT/scripts/python-requirements.txt
+pinned=$(sha256sum "$requirements" | cut -c1-16)  # a new pin list makes a new environment
+if [ -f "$PY/.complete-$pinned" ]; then
+  say "Python environment (rosbags): present in $PY"
+else
+  say "Python environment: rosbags and its dependencies, pinned (scripts/python-requirements.txt), into $PY"
+  rm -rf "$PY"
+  run "creating the Python environment $PY" python3 -m venv "$PY"
+  run "install of scripts/python-requirements.txt from PyPI" "$PY/bin/python" -m pip install --no-deps \
+    --only-binary=:all: --disable-pip-version-check --retries "${RVWO_PIP_RETRIES:-3}" --timeout 30 -r "$requirements"
+  touch "$PY/.complete-$pinned"
 fi
 say "done"
