@@ -90,6 +90,7 @@ class Conversion:
         self.still = []  # what the user must still supply
         self.info = {}   # role -> CameraInfo
         self.frame_of = {}  # role -> the images' frame_id
+        self.joint_kind = None  # JointState: "angles" or "speeds"
 
     def run(self, reader):
         roles = self.pick_topics(reader)
@@ -201,9 +202,21 @@ class Conversion:
         if left not in names or right not in names:
             raise BagError(f"{topic} message {index}: no joints '{left}' and '{right}' (it has {', '.join(names)}): "
                            "name the wheels with --left-joint and --right-joint")
-        if len(msg.position) != len(names):
-            raise BagError(f"{topic} message {index}: no wheel angles (position) in the JointState")
-        return (t, msg.position[names.index(left)], msg.position[names.index(right)], topic, index)
+        i, j = names.index(left), names.index(right)
+        if self.joint_kind is None:  # angles when the messages carry them, else speeds
+            self.joint_kind = "angles" if len(msg.position) == len(names) else "speeds"
+        if self.joint_kind == "angles":
+            if len(msg.position) != len(names):
+                raise BagError(f"{topic} message {index}: no wheel angles (position), as the messages before had")
+            return (t, msg.position[i], msg.position[j], topic, index)
+        if len(msg.velocity) != len(names):
+            raise BagError(f"{topic} message {index}: neither wheel angles (position) nor speeds (velocity)")
+        r, b = self.args.wheel_radius, self.args.track
+        if r is None or b is None:
+            raise BagError(f"{topic}: the JointState gives wheel speeds only: give --wheel-radius and --track, which "
+                           "turn them into the robot's speed and turn rate")
+        wl, wr = msg.velocity[i], msg.velocity[j]
+        return (t, r * (wl + wr) / 2, r * (wr - wl) / b, topic, index)
 
     @staticmethod
     def check_order(rows, topic):
@@ -218,6 +231,8 @@ class Conversion:
             with open(self.out / names[role], "w") as f:
                 f.writelines(f"{t:.9f} {path}\n" for t, path, *_ in r)
         header = {ODOMETRY: "t,x,y,theta", JOINTS: "t,left_angle,right_angle", TWIST: "t,v,omega"}
+        if self.joint_kind == "speeds":
+            header[JOINTS] = "t,v,omega"
         if odometry:
             with open(self.out / "odometry.csv", "w") as f:
                 f.write(header[self.odometry_type] + "\n")
@@ -300,10 +315,17 @@ class Conversion:
             lines += ["Camera.T_b_c: !!opencv-matrix", "   rows: 4", "   cols: 4", "   dt: d", f"   data: [{data}]"]
         if "odometry" in roles:
             source = {ODOMETRY: "pose", JOINTS: "encoders", TWIST: "velocities"}[self.odometry_type]
+            if self.joint_kind == "speeds":
+                source = "velocities"
             lines.append(f'Odometry.Input: "{source}"  # from {roles["odometry"]}')
             if source == "encoders":
                 lines.append(f"Odometry.TicksPerRevolution: {TICKS_PER_REVOLUTION}  # the wheel angles, as ticks")
-            self.still.append("Odometry.WheelRadiusLeft, Odometry.WheelRadiusRight and Odometry.Track (m)")
+            if self.args.wheel_radius is None or self.args.track is None:
+                self.still.append("Odometry.WheelRadiusLeft, Odometry.WheelRadiusRight and Odometry.Track (m; or "
+                                  "--wheel-radius and --track)")
+            else:
+                lines += [f"Odometry.WheelRadiusLeft: {self.args.wheel_radius!r}",
+                          f"Odometry.WheelRadiusRight: {self.args.wheel_radius!r}", f"Odometry.Track: {self.args.track!r}"]
         lines.append('Semantics.LabelSet: "voc21"')
         (self.out / "settings.yaml").write_text("\n".join(lines) + "\n")
 
@@ -354,11 +376,16 @@ def arguments():
     p.add_argument("--no-odometry", action="store_true", help="no odometry: for rvwo-replay --mode vo")
     p.add_argument("--left-joint", default="left_wheel_joint", help="JointState: the left wheel's name")
     p.add_argument("--right-joint", default="right_wheel_joint", help="JointState: the right wheel's name")
+    p.add_argument("--wheel-radius", type=float, metavar="M", help="the wheels' radius, m (into the settings)")
+    p.add_argument("--track", type=float, metavar="M", help="the distance between the wheels, m (into the settings)")
     p.add_argument("--base-frame", default="base_link", help="the robot's base frame in /tf_static (base_link)")
     p.add_argument("--version", action="version", version=f"rvwo-bag  version: {os.environ.get('RVWO_VERSION', '?')}")
     args = p.parse_args()
     if not args.input:
         p.error("--in BAG is needed")
+    for name, value in (("--wheel-radius", args.wheel_radius), ("--track", args.track)):
+        if value is not None and not (value > 0 and math.isfinite(value)):
+            p.error(f"{name} must be a length > 0 in metres, not {value}")
     return args
 
 

@@ -104,7 +104,7 @@ void settingsWith(const fs::path& from, const fs::path& to, const std::string& i
 }
 
 struct Case {
-  std::string camera, storage, odometry, input;
+  std::string camera, storage, odometry, input, flags;
 };
 
 // One camera, one storage, one odometry message: the bag's replay against the rawlog's.
@@ -123,12 +123,14 @@ void roundTrip(const Case& c) {
                             : c.camera == "rgbd" ? " --depth /camera/depth/image_raw"
                                                  : "";
   const std::string log = (work / "bag.log").string();
-  ASSERT_EQ(run(kBag + " --in " + bag + " --out " + out.string() + " --image /camera/left/image_raw" + flags + " > " +
-                log + " 2>&1"),
+  ASSERT_EQ(run(kBag + " --in " + bag + " --out " + out.string() + " --image /camera/left/image_raw" + flags + c.flags +
+                " > " + log + " 2>&1"),
             0)
       << rvwo::test::slurp(log);
   const std::string said = rvwo::test::slurp(log);
-  EXPECT_NE(said.find("still to supply in settings.yaml: Odometry.WheelRadiusLeft"), std::string::npos) << said;
+  if (c.flags.empty()) {
+    EXPECT_NE(said.find("still to supply in settings.yaml: Odometry.WheelRadiusLeft"), std::string::npos) << said;
+  }
   // Its settings: the simulator's camera and camera-to-base transform, the odometry's kind.
   cv::FileStorage mine((out / "settings.yaml").string(), cv::FileStorage::READ),
       sim((seq / "settings.yaml").string(), cv::FileStorage::READ);
@@ -144,6 +146,10 @@ void roundTrip(const Case& c) {
   ASSERT_FALSE(a.empty());
   EXPECT_LT(cv::norm(a - b, cv::NORM_INF), 1e-12);
   EXPECT_EQ(std::string(mine["Odometry.Input"]), c.input);
+  if (!c.flags.empty()) {
+    for (const char* key : {"Odometry.WheelRadiusLeft", "Odometry.WheelRadiusRight", "Odometry.Track"})
+      EXPECT_DOUBLE_EQ(double(mine[key]), double(sim[key])) << key;
+  }
   // The replays: the rawlog's, with the same odometry input, and the bag's.
   const std::string ticks = c.input == "encoders" ? "65536" : "";
   settingsWith(seq / "settings.yaml", seq / "as_bag.yaml", c.input);
@@ -224,6 +230,11 @@ TEST(Bag, BadBagsGetOneLineAndLeaveNothing) {
   EXPECT_EQ(failure(bag, left),
             "rvwo-bag: error: /camera/left/image_raw message 1: image encoding 'yuv422' is not "
             "one RVWO reads (mono8, rgb8, bgr8, rgba8, bgra8, mono16, 16UC1; 32FC1 for depth)\n");
+  bag = spoiltBag(work / "src", "speeds.bag", "ros1", "--odometry speeds");
+  EXPECT_EQ(failure(bag, left),
+            "rvwo-bag: error: /joint_states: the JointState gives wheel speeds only: give "
+            "--wheel-radius and --track, which turn them into the robot's speed and turn rate\n");
+  EXPECT_EQ(failure(bag, left + " --track -1"), "rvwo-bag: error: --track must be a length > 0 in metres, not -1.0\n");
   bag = spoiltBag(work / "src", "swapped.bag", "ros1", "--swap 10");
   const std::string swapped = failure(bag, left);
   EXPECT_EQ(swapped.rfind("rvwo-bag: error: /camera/left/image_raw message 12: its stamp ", 0), 0u) << swapped;
@@ -244,9 +255,13 @@ TEST(Bag, BadBagsGetOneLineAndLeaveNothing) {
   }
 }
 
-TEST(Bag, StereoRos1WithOdometryReplaysAsTheRawlog) { roundTrip({"stereo", "ros1", "odometry", "pose"}); }
-TEST(Bag, RgbdRos2SqliteWithWheelAnglesReplaysAsTheRawlog) { roundTrip({"rgbd", "sqlite3", "joints", "encoders"}); }
-TEST(Bag, MonoRos2McapWithTwistReplaysAsTheRawlog) { roundTrip({"mono", "mcap", "twist", "velocities"}); }
+TEST(Bag, StereoRos1WithOdometryReplaysAsTheRawlog) { roundTrip({"stereo", "ros1", "odometry", "pose", ""}); }
+TEST(Bag, RgbdRos2SqliteWithWheelAnglesReplaysAsTheRawlog) { roundTrip({"rgbd", "sqlite3", "joints", "encoders", ""}); }
+TEST(Bag, MonoRos2McapWithTwistReplaysAsTheRawlog) { roundTrip({"mono", "mcap", "twist", "velocities", ""}); }
+// Wheel speeds alone: the robot's speed and turn rate through the wheels given on the command line.
+TEST(Bag, StereoRos2McapWithWheelSpeedsReplaysAsTheRawlog) {
+  roundTrip({"stereo", "mcap", "speeds", "velocities", " --wheel-radius 0.08 --track 0.4"});
+}
 
 }  // namespace
 }  // namespace rvwo::apps::test

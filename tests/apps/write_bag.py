@@ -1,7 +1,7 @@
 # Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 """Writes a ROS bag from a simulated sequence dumped by bag_test (with the rosbags writer).
 
-  write_bag.py SRC BAG --storage ros1|sqlite3|mcap --odometry odometry|joints|twist
+  write_bag.py SRC BAG --storage ros1|sqlite3|mcap --odometry odometry|joints|speeds|twist [--wheels R,B]
                [--drop TOPIC] [--encoding ENC] [--swap N]
 
 The last three spoil the bag for the bad-input tests: a topic left out, the camera's images
@@ -26,7 +26,8 @@ def main():
     p.add_argument("src")
     p.add_argument("bag")
     p.add_argument("--storage", choices=["ros1", "sqlite3", "mcap"], required=True)
-    p.add_argument("--odometry", choices=["odometry", "joints", "twist"], required=True)
+    p.add_argument("--odometry", choices=["odometry", "joints", "speeds", "twist"], required=True)
+    p.add_argument("--wheels", default="0.08,0.4", help="speeds: the wheels' radius and track, m")
     p.add_argument("--drop", default="")
     p.add_argument("--encoding", default="")
     p.add_argument("--swap", type=int, default=-1)
@@ -112,6 +113,12 @@ def main():
             msg = T["sensor_msgs/msg/JointState"](header=header(ns, ""), name=["left_wheel_joint", "right_wheel_joint"],
                                                   position=np.array([tl * k, tr * k]), velocity=np.zeros(0),
                                                   effort=np.zeros(0))
+            messages.append((ns, "/joint_states", "sensor_msgs/msg/JointState", msg))
+        elif a.odometry == "speeds":
+            r, b = (float(s) for s in a.wheels.split(","))
+            msg = T["sensor_msgs/msg/JointState"](header=header(ns, ""), name=["left_wheel_joint", "right_wheel_joint"],
+                                                  position=np.zeros(0), effort=np.zeros(0),
+                                                  velocity=np.array([(v - omega * b / 2) / r, (v + omega * b / 2) / r]))
             messages.append((ns, "/joint_states", "sensor_msgs/msg/JointState", msg))
         else:
             twist = T["geometry_msgs/msg/Twist"](linear=vec(v, 0.0, 0.0), angular=vec(0.0, 0.0, omega))
