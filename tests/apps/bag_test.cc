@@ -115,16 +115,17 @@ void roundTrip(const Case& c) {
   fs::remove_all(work);
   dump(seq, work / "src");
   const std::string bag = (work / (c.storage == "ros1" ? "run.bag" : "run")).string();
+  const bool compressed = c.camera == "mono";  // CompressedImage (png) for mono, Image for the others
   ASSERT_EQ(run(kPython + " " + RVWO_SOURCE_DIR + "/tests/apps/write_bag.py " + (work / "src").string() + " " + bag +
-                " --storage " + c.storage + " --odometry " + c.odometry),
+                " --storage " + c.storage + " --odometry " + c.odometry + (compressed ? " --compressed" : "")),
             0);
   const fs::path out = work / "converted";
   const std::string flags = c.camera == "stereo" ? " --right /camera/right/image_raw"
                             : c.camera == "rgbd" ? " --depth /camera/depth/image_raw"
                                                  : "";
   const std::string log = (work / "bag.log").string();
-  ASSERT_EQ(run(kBag + " --in " + bag + " --out " + out.string() + " --image /camera/left/image_raw" + flags + c.flags +
-                " > " + log + " 2>&1"),
+  ASSERT_EQ(run(kBag + " --in " + bag + " --out " + out.string() + " --image /camera/left/image_raw" +
+                (compressed ? "/compressed" : "") + flags + c.flags + " > " + log + " 2>&1"),
             0)
       << rvwo::test::slurp(log);
   const std::string said = rvwo::test::slurp(log);
@@ -257,7 +258,7 @@ TEST(Bag, BadBagsGetOneLineAndLeaveNothing) {
 
 TEST(Bag, StereoRos1WithOdometryReplaysAsTheRawlog) { roundTrip({"stereo", "ros1", "odometry", "pose", ""}); }
 TEST(Bag, RgbdRos2SqliteWithWheelAnglesReplaysAsTheRawlog) { roundTrip({"rgbd", "sqlite3", "joints", "encoders", ""}); }
-TEST(Bag, MonoRos2McapWithTwistReplaysAsTheRawlog) { roundTrip({"mono", "mcap", "twist", "velocities", ""}); }
+TEST(Bag, MonoRos2McapCompressedWithTwistReplaysAsTheRawlog) { roundTrip({"mono", "mcap", "twist", "velocities", ""}); }
 // Wheel speeds alone: the robot's speed and turn rate through the wheels given on the command line.
 TEST(Bag, StereoRos2McapWithWheelSpeedsReplaysAsTheRawlog) {
   roundTrip({"stereo", "mcap", "speeds", "velocities", " --wheel-radius 0.08 --track 0.4"});

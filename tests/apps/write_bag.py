@@ -13,6 +13,8 @@ baseline) and T_b_c.txt (16 numbers, row by row). Topics as a robot's driver pub
 """
 import argparse
 import math
+import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +30,7 @@ def main():
     p.add_argument("--storage", choices=["ros1", "sqlite3", "mcap"], required=True)
     p.add_argument("--odometry", choices=["odometry", "joints", "speeds", "twist"], required=True)
     p.add_argument("--wheels", default="0.08,0.4", help="speeds: the wheels' radius and track, m")
+    p.add_argument("--compressed", action="store_true", help="the camera as CompressedImage (png)")
     p.add_argument("--drop", default="")
     p.add_argument("--encoding", default="")
     p.add_argument("--swap", type=int, default=-1)
@@ -54,6 +57,14 @@ def main():
         data = np.ascontiguousarray(array).view(np.uint8).reshape(-1)
         return T["sensor_msgs/msg/Image"](header=header(ns, frame), height=array.shape[0], width=array.shape[1],
                                           encoding=enc, is_bigendian=0, step=data.size // array.shape[0], data=data)
+
+    def compressed(ns, array, frame):
+        sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "apps"))
+        import rvwo_bag  # its PNG writer: lossless, so the pixels come back as they were
+        with tempfile.TemporaryDirectory() as d:
+            rvwo_bag.png(Path(d) / "f.png", array if array.ndim == 2 else array[:, :, ::-1])
+            data = np.frombuffer((Path(d) / "f.png").read_bytes(), np.uint8)
+        return T["sensor_msgs/msg/CompressedImage"](header=header(ns, frame), format="png", data=data)
 
     def info(ns, frame, tx):
         roi = T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
@@ -83,7 +94,11 @@ def main():
         swapped = ns
         if a.swap >= 0 and i in (a.swap, a.swap + 1):  # the two header stamps exchanged
             swapped = int(frames[2 * a.swap + 1 - i][0])
-        messages.append((ns, "/camera/left/image_raw", "sensor_msgs/msg/Image", image(swapped, left, "camera_left")))
+        if a.compressed:
+            messages.append((ns, "/camera/left/image_raw/compressed", "sensor_msgs/msg/CompressedImage",
+                             compressed(swapped, left, "camera_left")))
+        else:
+            messages.append((ns, "/camera/left/image_raw", "sensor_msgs/msg/Image", image(swapped, left, "camera_left")))
         messages.append((ns, "/camera/left/camera_info", "sensor_msgs/msg/CameraInfo", info(ns, "camera_left", 0.0)))
         if len(f) > 2:
             other = np.load(src / f[2])
