@@ -190,6 +190,14 @@ class ReplayApp {
                                   ": Odometry.Input must be \"encoders\", \"velocities\" or \"pose\"");
     if (odometry_input_ == "encoders" && !(ticks_per_rev_ > 0))
       throw std::invalid_argument(settings.path() + ": missing key Odometry.TicksPerRevolution (for encoders)");
+    // Ticks and speeds become distances through the wheels' size: a default would scale every metre.
+    if (odometry_input_ != "pose" && opt_.mode != rvwo::estimator::Mode::kVo) {
+      for (const char* key : {"Odometry.WheelRadiusLeft", "Odometry.WheelRadiusRight", "Odometry.Track"}) {
+        if (!settings.number(key))
+          throw std::invalid_argument(settings.path() + ": missing key " + key + " (m: Odometry.Input " +
+                                      odometry_input_ + " becomes distance through the wheels' size)");
+      }
+    }
     if (rig_.sensor == rvwo::estimator::Sensor::kRgbd) rig_.depth_factor = 1.0;  // the reader gives metres
     limits_ = rvwo::apps::readOdometryLimits(settings);
     max_gap_ = settings.number("Rawlog.MaxGap").value_or(max_gap_);

@@ -187,6 +187,19 @@ TEST(Replay, VwWithoutUsableOdometryIsAnError) {
       << err;
   EXPECT_NE(err.find("no encoder ticks (Odometry.Input is encoders)"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(dir / "t.txt"));
+  // Ticks without the wheels' size: refused before any work, not replayed at a default size.
+  std::ifstream full(dir / "settings.yaml");
+  std::ofstream cut(dir / "no_radius.yaml");
+  for (std::string l; std::getline(full, l);)
+    if (l.rfind("Odometry.WheelRadiusRight:", 0) != 0) cut << l << "\n";
+  cut.close();
+  EXPECT_EQ(replayRaw(dir, "no_radius.yaml", "--deterministic --out " + (dir / "t.txt").string(), &out, &err), 1);
+  EXPECT_EQ(err, "rvwo-replay: error: " + (dir / "no_radius.yaml").string() +
+                     ": missing key Odometry.WheelRadiusRight (m: Odometry.Input encoders becomes distance through "
+                     "the wheels' size)\n");
+  EXPECT_EQ(replayRaw(dir, "no_radius.yaml", "--deterministic --mode vo --out " + (dir / "t.txt").string(), &out, &err),
+            0)
+      << err;
   fs::remove_all(dir);
 }
 
