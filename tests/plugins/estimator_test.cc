@@ -11,6 +11,7 @@
 #include <condition_variable>
 #include <functional>
 #include <mutex>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -343,6 +344,44 @@ TEST(Options, FromSettings) {
             5);
 }
 
+// One radial-tangential camera (TUM fr1's published coefficients) is undistorted on input onto its
+// own intrinsics: a bright dot drawn where OpenCV's model puts a point lands where the pinhole puts
+// it, and depth moves with the image (nearest, none outside it).
+TEST(Options, DistortedPinholeIsUndistortedOnInput) {
+  std::string y = kSettings;
+  const std::string stereo = "Sensor: \"stereo\"";
+  y.replace(y.find(stereo), stereo.size(), "Sensor: \"rgbd\"");
+  y += "RGBD.DepthMapFactor: 1000\nCamera1.k1: 0.2624\nCamera1.k2: -0.9531\nCamera1.p1: -0.0054\n"
+       "Camera1.p2: 0.0026\nCamera1.k3: 1.1633\n";
+  const Rig rig = readRig(rvwo::Settings::fromString(y, "s.yaml"));
+  ASSERT_TRUE(rig.rectification);
+  EXPECT_DOUBLE_EQ(rig.camera->fx(), 400);
+  const cv::Mat K = (cv::Mat_<double>(3, 3) << 400, 0, 319.5, 0, 400, 239.5, 0, 0, 1);
+  const cv::Mat D = (cv::Mat_<double>(5, 1) << 0.2624, -0.9531, -0.0054, 0.0026, 1.1633);
+  for (const cv::Point3d P :
+       {cv::Point3d(0.5, 0.3, 1.0), cv::Point3d(-0.6, -0.35, 1.2), cv::Point3d(-0.55, 0.4, 1.0)}) {
+    std::vector<cv::Point2d> raw;
+    cv::projectPoints(std::vector<cv::Point3d>{P}, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D, raw);
+    cv::Mat image(480, 640, CV_8U, cv::Scalar(0));
+    cv::circle(image, cv::Point(cvRound(raw[0].x * 16), cvRound(raw[0].y * 16)), 3 * 16, cv::Scalar(255), cv::FILLED,
+               cv::LINE_AA, 4);
+    cv::Mat out, none;
+    rig.rectification->rectify(image, cv::Mat(), &out, &none);
+    const cv::Moments m = cv::moments(out);
+    const Eigen::Vector2d pinhole = rig.camera->project(Eigen::Vector3d(P.x, P.y, P.z));
+    EXPECT_NEAR(m.m10 / m.m00, pinhole.x(), 0.25) << P;
+    EXPECT_NEAR(m.m01 / m.m00, pinhole.y(), 0.25) << P;
+    EXPECT_GT(cv::norm(raw[0] - cv::Point2d(pinhole.x(), pinhole.y())), 5.0) << "the lens moved the point";
+    cv::Mat depth(480, 640, CV_16U, cv::Scalar(0));
+    depth.at<std::uint16_t>(cvRound(raw[0].y), cvRound(raw[0].x)) = 1234;
+    const cv::Mat moved = rig.rectification->rectifyLeftDepth(depth);
+    cv::Point at;
+    cv::minMaxLoc(moved, nullptr, nullptr, nullptr, &at);
+    EXPECT_EQ(moved.at<std::uint16_t>(at), 1234);
+    EXPECT_LT(cv::norm(cv::Point2d(at) - cv::Point2d(pinhole.x(), pinhole.y())), 1.5) << P;
+  }
+}
+
 TEST(Options, ErrorsNameTheKey) {
   auto message = [](const std::string& yaml) {
     try {
@@ -360,10 +399,9 @@ TEST(Options, ErrorsNameTheKey) {
   std::string no_fx = y;
   no_fx.replace(no_fx.find("Camera1.fx: 400\n"), 16, "");
   EXPECT_EQ(message(no_fx), "s.yaml: missing key Camera1.fx");
-  // A distorted pinhole (ORB-SLAM3's radial-tangential keys): refused, not ignored. Zeros are fine.
+  // A distorted pinhole stereo pair (ORB-SLAM3's radial-tangential keys): refused, not ignored.
   EXPECT_EQ(message(y + "Camera1.k1: 0\nCamera1.p2: 0.0026\n"),
-            "s.yaml: Camera1.p2 is not 0: RVWO's estimator takes undistorted pinhole images; undistort them first, "
-            "or replay with --backend orbslam3 (it undistorts keypoints)");
+            "s.yaml: Camera1.p2 is not 0: a stereo pair is taken rectified (Stereo.b), without distortion");
   EXPECT_EQ(message(y + "Camera1.k1: 0\nCamera1.k2: 0\nCamera1.p1: 0\nCamera1.p2: 0\nCamera1.k3: 0\n"), "no error");
   std::string bad_rot = y;
   bad_rot.replace(bad_rot.find("[0, 0, 1,"), 9, "[0, 0, 2,");

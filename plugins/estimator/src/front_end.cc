@@ -25,7 +25,9 @@ Estimator::Impl::FrontEnd Estimator::Impl::frontEnd(const FrameInput& in) {
     timings.add("stereo", msSince(t1));
   } else {
     f = extractor.extract(grey);
-    if (rig.sensor == Sensor::kRgbd) depthFromImage(in.depth, rig.depth_factor, rig.bf(), &f);
+    if (rig.sensor == Sensor::kRgbd)
+      depthFromImage(rig.rectification ? rig.rectification->rectifyLeftDepth(in.depth) : in.depth, rig.depth_factor,
+                     rig.bf(), &f);
     timings.add("features", msSince(t0));
   }
   return out;

@@ -11,13 +11,28 @@ namespace rvwo::estimator {
 void StereoRectification::rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat* left_out,
                                   cv::Mat* right_out) const {
   cv::remap(left, *left_out, left_x, left_y, cv::INTER_LINEAR);
-  cv::remap(right, *right_out, right_x, right_y, cv::INTER_LINEAR);
+  if (!right_x.empty()) cv::remap(right, *right_out, right_x, right_y, cv::INTER_LINEAR);
 }
 
 cv::Mat StereoRectification::rectifyLeftLabels(const cv::Mat& labels) const {
   cv::Mat out;
   cv::remap(labels, out, left_x, left_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(-1));
   return out;
+}
+
+cv::Mat StereoRectification::rectifyLeftDepth(const cv::Mat& depth) const {
+  cv::Mat out;
+  cv::remap(depth, out, left_x, left_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(0));
+  return out;
+}
+
+void undistortPinhole(const std::array<double, 5>& d, Rig* rig) {
+  const CameraModel& c = *rig->camera;
+  const cv::Mat K = cv::Mat_<double>({3, 3}, {c.fx(), 0, c.cx(), 0, c.fy(), c.cy(), 0, 0, 1});
+  auto r = std::make_shared<StereoRectification>();
+  cv::initUndistortRectifyMap(K, cv::Mat_<double>({5, 1}, {d[0], d[1], d[2], d[3], d[4]}), cv::Mat(), K,
+                              cv::Size(rig->width, rig->height), CV_32FC1, r->left_x, r->left_y);
+  rig->rectification = r;
 }
 
 void rectifyFisheyeStereo(const KannalaBrandtCamera& left, const KannalaBrandtCamera& right,
@@ -72,13 +87,14 @@ Rig readRig(const Settings& s) {
   const double cx = s.requireNumber("Camera1.cx"), cy = s.requireNumber("Camera1.cy");
   if (!(fx > 0 && fy > 0)) throw std::invalid_argument(s.path() + ": Camera1.fx and Camera1.fy must be > 0");
   const std::string type = s.text("Camera.type").value_or("PinHole");
+  std::array<double, 5> radtan{};  // ORB-SLAM3's radial-tangential keys of a PinHole camera
   if (type == "PinHole") {
-    // ORB-SLAM3's radial-tangential keys: this estimator's front end takes undistorted images only.
-    for (const char* k : {"Camera1.k1", "Camera1.k2", "Camera1.p1", "Camera1.p2", "Camera1.k3"}) {
-      if (s.number(k).value_or(0.0) != 0.0)
-        throw std::invalid_argument(s.path() + ": " + k +
-                                    " is not 0: RVWO's estimator takes undistorted pinhole images; undistort them "
-                                    "first, or replay with --backend orbslam3 (it undistorts keypoints)");
+    const char* keys[5] = {"Camera1.k1", "Camera1.k2", "Camera1.p1", "Camera1.p2", "Camera1.k3"};
+    for (int i = 0; i < 5; ++i) {
+      radtan[i] = s.number(keys[i]).value_or(0.0);
+      if (radtan[i] != 0.0 && sensor == "stereo")
+        throw std::invalid_argument(s.path() + ": " + keys[i] +
+                                    " is not 0: a stereo pair is taken rectified (Stereo.b), without distortion");
     }
     rig.camera = std::make_shared<PinholeCamera>(fx, fy, cx, cy);
   } else if (type == "KannalaBrandt8") {
@@ -114,7 +130,8 @@ Rig readRig(const Settings& s) {
     rig.depth_factor = s.requireNumber("RGBD.DepthMapFactor");
     if (!(rig.depth_factor > 0)) throw std::invalid_argument(s.path() + ": RGBD.DepthMapFactor must be > 0");
   }
-  if (!rig.rectification) rig.T_b_c = readIsometry(s, "Camera.T_b_c", true);
+  if (!rig.rectification) rig.T_b_c = readIsometry(s, "Camera.T_b_c", true);  // (a fisheye pair's: set above)
+  if (radtan != std::array<double, 5>{}) undistortPinhole(radtan, &rig);
   const Eigen::Isometry3d T_b_o = readIsometry(s, "Odometry.T_b_o", false);
   rig.T_b_o =
       SE2(T_b_o.translation().x(), T_b_o.translation().y(), std::atan2(T_b_o.linear()(1, 0), T_b_o.linear()(0, 0)));

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <array>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
@@ -35,19 +36,22 @@ enum class Mode { kWheel, kVo, kVw };
 // landmark's shape from the reliability model (the paper's adaptive kernel, eq. 7).
 enum class KernelChoice { kHuber, kFixed, kAdaptive };
 
-// A fisheye stereo pair (ORB-SLAM3's KannalaBrandt8 stereo: Camera1.*, Camera2.*, Stereo.T_c1_c2)
-// is rectified on input into a pinhole pair (cv::fisheye::stereoRectify); the rig then describes
-// the rectified pair, and these tables map the raw images (and the left one's labels) onto it.
+// The raw images onto the rig's pinhole camera, on input: a fisheye stereo pair (ORB-SLAM3's
+// KannalaBrandt8 stereo: Camera1.*, Camera2.*, Stereo.T_c1_c2) rectified into a pinhole pair
+// (cv::fisheye::stereoRectify), or one radial-tangential camera (PinHole with Camera1.k1, k2, p1,
+// p2, k3) undistorted, same intrinsics. These tables map the raw images (and the left one's labels
+// and depth) onto the rig's.
 struct StereoRectification {
-  cv::Mat left_x, left_y, right_x, right_y;  // cv::remap tables: raw pixel of each rectified one
+  cv::Mat left_x, left_y, right_x, right_y;  // cv::remap tables: raw pixel of each rectified one (no right: one camera)
   void rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat* left_out, cv::Mat* right_out) const;
-  cv::Mat rectifyLeftLabels(const cv::Mat& labels) const;  // nearest label
+  cv::Mat rectifyLeftLabels(const cv::Mat& labels) const;  // nearest label, -1 outside the raw image
+  cv::Mat rectifyLeftDepth(const cv::Mat& depth) const;    // nearest depth, 0 (none) outside
 };
 
 struct Rig {
   Sensor sensor = Sensor::kStereo;
   std::shared_ptr<const CameraModel> camera;                 // pinhole for stereo and RGB-D (rectified)
-  std::shared_ptr<const StereoRectification> rectification;  // fisheye stereo: raw to rectified
+  std::shared_ptr<const StereoRectification> rectification;  // fisheye stereo, radial-tangential: raw to pinhole
   int width = 640, height = 480;                             // px
   double fps = 30;                                           // Hz
   double baseline = 0.12;                                    // m (RGB-D: virtual, for the u_R coordinate)
@@ -62,6 +66,9 @@ struct Rig {
 // turns rig.T_b_c (the raw left camera's) into the rectified left camera's.
 void rectifyFisheyeStereo(const KannalaBrandtCamera& left, const KannalaBrandtCamera& right,
                           const Eigen::Isometry3d& T_c1_c2, Rig* rig);
+// One pinhole camera with radial-tangential distortion (OpenCV's k1, k2, p1, p2, k3), images
+// rig.width x rig.height: sets rig.rectification to undistort it onto rig.camera's intrinsics.
+void undistortPinhole(const std::array<double, 5>& k1_k2_p1_p2_k3, Rig* rig);
 
 struct EstimatorOptions {
   Mode mode = Mode::kVw;
