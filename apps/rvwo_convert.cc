@@ -13,9 +13,10 @@
 //              RGB-D with --depth-factor), odometry.csv ("t,x,y,theta" rows; a header line may name
 //              other columns: wheel angles left_angle,right_angle or speeds v,omega)
 //
-// With a dataset preset (--preset; for TUM also taken from the folder's name, rgbd_dataset_freiburgN_*)
-// it writes settings.yaml beside the rawlog: the camera as the dataset's authors published it
-// (convert/presets.h), and says what the user must still supply.
+// For a public dataset it writes settings.yaml beside the rawlog, the camera as the dataset's
+// authors published it (convert/presets.h): a TUM rig's preset (--preset, or the folder's name,
+// rgbd_dataset_freiburgN_*), or an OpenLORIS-Scene sequence's own sensors.yaml and
+// trans_matrix.yaml; and says what the user must still supply.
 //
 // Every list line is checked: a malformed line, a missing image, or odometry whose time does not
 // increase is one error naming the file and the line.
@@ -381,13 +382,27 @@ void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
   c->groundTruthFrom(in);
 }
 
-// The preset asked for, or the one a TUM folder's name gives; none: nullopt.
+// The preset asked for, the one a TUM folder's name gives, or an OpenLORIS-Scene sequence's own
+// calibration files (RGB-D); none: nullopt.
 std::optional<rvwo::apps::DatasetPreset> presetOf(ConvertArgs& args, const fs::path& in) {
   const std::string& kind = args.kind.getValue();
   if (args.preset.isSet()) return rvwo::apps::datasetPreset(kind, args.preset.getValue());
   if (kind == "tum" && !rvwo::apps::tumPresetOfFolder(in).empty())
     return rvwo::apps::datasetPreset(kind, rvwo::apps::tumPresetOfFolder(in));
+  if (kind == "openloris" && !args.fisheye.getValue() && fs::exists(in / "sensors.yaml"))
+    return rvwo::apps::openLorisCalibration(in);
   return std::nullopt;
+}
+
+// Why no settings were written, and what to do.
+std::string noSettingsReason(ConvertArgs& args) {
+  if (args.kind.getValue() == "tum") return "give --preset fr1, fr2 or fr3 (the folder's name names no Freiburg rig)";
+  if (args.kind.getValue() == "openloris")
+    return args.fisheye.getValue() ? "the T265 pair's calibration is not read yet: write them from the sequence's "
+                                     "sensors.yaml (docs/datasets.md)"
+                                   : "the folder has no sensors.yaml and trans_matrix.yaml: copy them in from the "
+                                     "sequence's download";
+  return "write them for your camera (docs/rawlog.md)";
 }
 
 int convert(ConvertArgs& args) {
@@ -408,15 +423,12 @@ int convert(ConvertArgs& args) {
   c.write(args.out.getValue(), in);
   if (preset) {
     rvwo::apps::writePresetSettings(*preset, settings);
-    std::printf("rvwo-convert: %s: the camera of preset %s (%s)\n", settings.string().c_str(), preset->name.c_str(),
-                preset->title.c_str());
+    std::printf("rvwo-convert: %s: %s, from %s\n", settings.string().c_str(), preset->title.c_str(),
+                preset->kind == "openloris" ? preset->source.c_str() : ("preset " + preset->name).c_str());
     if (!preset->still_to_supply.empty())
       std::printf("rvwo-convert: still to supply: %s\n", preset->still_to_supply.c_str());
   } else {
-    std::printf("rvwo-convert: no settings written: %s\n",
-                args.kind.getValue() == "tum"
-                    ? "give --preset fr1, fr2 or fr3 (the folder's name names no Freiburg rig)"
-                    : "write them for your camera (docs/rawlog.md)");
+    std::printf("rvwo-convert: no settings written: %s\n", noSettingsReason(args).c_str());
   }
   return 0;
 }

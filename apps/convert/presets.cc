@@ -2,6 +2,8 @@
 #include "convert/presets.h"
 
 #include <fstream>
+#include <map>
+#include <opencv2/core.hpp>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -41,7 +43,91 @@ DatasetPreset tum(const std::string& name, const std::string& title, double fx, 
   return p;
 }
 
+// The transform from `from` to `to` through trans_matrix.yaml's entries (T_parent_child each),
+// walked either way round; false when no chain joins them.
+bool chain(const std::map<std::pair<std::string, std::string>, cv::Matx44d>& edges, const std::string& from,
+           const std::string& to, cv::Matx44d* T) {
+  std::map<std::string, cv::Matx44d> reached{{from, cv::Matx44d::eye()}};
+  std::vector<std::string> todo{from};
+  while (!todo.empty()) {
+    const std::string f = todo.back();
+    todo.pop_back();
+    if (f == to) {
+      *T = reached[f];
+      return true;
+    }
+    for (const auto& [pc, M] : edges) {
+      const bool forward = pc.first == f, backward = pc.second == f;
+      const std::string next = forward ? pc.second : pc.first;
+      if ((forward || backward) && !reached.count(next)) {
+        reached[next] = reached[f] * (forward ? M : M.inv());
+        todo.push_back(next);
+      }
+    }
+  }
+  return false;
+}
+
 }  // namespace
+
+DatasetPreset openLorisCalibration(const std::filesystem::path& folder) {
+  const std::string sensors_path = (folder / "sensors.yaml").string(),
+                    trans_path = (folder / "trans_matrix.yaml").string();
+  cv::FileStorage sensors, trans;
+  try {
+    sensors.open(sensors_path, cv::FileStorage::READ);
+    trans.open(trans_path, cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(folder.string() + ": sensors.yaml or trans_matrix.yaml is not readable YAML (" + e.msg +
+                             ")");
+  }
+  if (!sensors.isOpened() || !trans.isOpened())
+    throw std::runtime_error(folder.string() + ": no sensors.yaml and trans_matrix.yaml (the sequence's calibration)");
+  const std::string camera = "d400_color_optical_frame";
+  const cv::FileNode c = sensors[camera];
+  cv::Mat intrinsics, distortion;
+  if (!c.empty()) {
+    c["intrinsics"] >> intrinsics;
+    c["distortion_coefficients"] >> distortion;
+  }
+  if (intrinsics.total() != 4 || std::string(c["distortion_model"]) != "radial-tangential" || distortion.total() > 5)
+    throw std::runtime_error(sensors_path + ": no " + camera +
+                             " with intrinsics [fx, cx, fy, cy] and radial-tangential distortion_coefficients");
+  std::map<std::pair<std::string, std::string>, cv::Matx44d> edges;
+  for (const cv::FileNode& row : trans["trans_matrix"]) {
+    cv::Mat M;
+    row["matrix"] >> M;
+    if (M.rows != 4 || M.cols != 4)
+      throw std::runtime_error(trans_path + ": the matrix of " + std::string(row["parent_frame"]) + " to " +
+                               std::string(row["child_frame"]) + " is not 4x4");
+    M.convertTo(M, CV_64F);
+    edges[{std::string(row["parent_frame"]), std::string(row["child_frame"])}] = cv::Matx44d(M);
+  }
+  cv::Matx44d T;
+  if (!chain(edges, "base_link", camera, &T))
+    throw std::runtime_error(trans_path + ": no chain of transforms from base_link to " + camera);
+  DatasetPreset p;
+  p.kind = "openloris";
+  p.name = "(the sequence's own)";
+  p.title = "OpenLORIS-Scene, RealSense D435i colour and aligned depth, on the robot's base_link";
+  p.source = "the sequence's sensors.yaml and trans_matrix.yaml (OpenLORIS-Scene, Shi et al., ICRA 2020)";
+  p.sensor = "rgbd";
+  p.width = int(c["width"]);
+  p.height = int(c["height"]);
+  p.fps = double(c["fps"]);
+  const cv::Mat k = intrinsics.reshape(1, 1);
+  k.convertTo(intrinsics, CV_64F);
+  p.fx = intrinsics.at<double>(0);
+  p.cx = intrinsics.at<double>(1);
+  p.fy = intrinsics.at<double>(2);
+  p.cy = intrinsics.at<double>(3);
+  distortion.reshape(1, 1).convertTo(distortion, CV_64F);
+  for (int i = 0; i < static_cast<int>(distortion.total()); ++i) p.radtan[i] = distortion.at<double>(i);
+  p.depth_factor = 1000;
+  for (int i = 0; i < 16; ++i) p.T_b_c[i] = T(i / 4, i % 4);
+  p.odometry_input = "pose";
+  return p;
+}
 
 std::vector<DatasetPreset> datasetPresets(const std::string& kind) {
   if (kind != "tum") return {};
@@ -76,7 +162,7 @@ std::string tumPresetOfFolder(const std::filesystem::path& folder) {
 
 void writePresetSettings(const DatasetPreset& p, const std::filesystem::path& file) {
   std::ostringstream o;
-  o.precision(10);
+  o.precision(17);
   o << "%YAML:1.0\n"
     << "# written by rvwo-convert --preset " << p.name << ": " << p.title << "\n"
     << "# camera: " << p.source << "\n"
@@ -88,11 +174,11 @@ void writePresetSettings(const DatasetPreset& p, const std::filesystem::path& fi
   for (int i = 0; i < 5; ++i) o << "Camera1." << keys[i] << ": " << p.radtan[i] << "\n";
   o << "Camera.width: " << p.width << "\nCamera.height: " << p.height << "\nCamera.fps: " << p.fps << "\n";
   if (p.depth_factor > 0) o << "RGBD.DepthMapFactor: " << p.depth_factor << "\n";
-  // No robot base in the dataset: the base is the camera's own place, x forward, z up.
-  o << "# the base: the camera's own place, x forward, y left, z up (no robot base in the dataset)\n"
-    << "Camera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
-    << "   data: [0, 0, 1, 0, -1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 0, 1]\n"
-    << "Semantics.LabelSet: \"voc21\"\n";
+  o << "Camera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n   data: [";
+  for (int i = 0; i < 16; ++i) o << (i ? ", " : "") << p.T_b_c[i];
+  o << "]\n";
+  if (!p.odometry_input.empty()) o << "Odometry.Input: \"" << p.odometry_input << "\"\n";
+  o << "Semantics.LabelSet: \"voc21\"\n";
   writeWhole(file.string(), [&](const std::string& tmp) {
     std::ofstream out(tmp);
     if (!(out << o.str()) || !out.flush()) throw std::runtime_error(file.string() + ": cannot be written");

@@ -22,7 +22,11 @@ struct DatasetPreset {
   double fx = 0, fy = 0, cx = 0, cy = 0;  // px [Camera1.fx ...]
   std::array<double, 5> radtan{};         // k1, k2, p1, p2, k3 (OpenCV) [Camera1.k1 ...]; 0: undistorted
   double depth_factor = 0;                // depth units a metre [RGBD.DepthMapFactor]
-  std::string still_to_supply;            // what the user must still give (printed by rvwo-convert)
+  // The camera in the robot's base frame, row by row [Camera.T_b_c]; the default: no robot base,
+  // the base at the camera, x forward, y left, z up.
+  std::array<double, 16> T_b_c{0, 0, 1, 0, -1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 0, 1};
+  std::string odometry_input;   // [Odometry.Input]; "": none written
+  std::string still_to_supply;  // what the user must still give (printed by rvwo-convert)
 };
 
 // The presets of a folder kind.
@@ -31,6 +35,12 @@ std::vector<DatasetPreset> datasetPresets(const std::string& kind);
 DatasetPreset datasetPreset(const std::string& kind, const std::string& name);
 // The TUM preset a folder's name gives (rgbd_dataset_freiburgN_*), or "" when it gives none.
 std::string tumPresetOfFolder(const std::filesystem::path& folder);
+// An OpenLORIS-Scene sequence folder's own calibration, as its authors ship it beside the data:
+// sensors.yaml (the D435i colour camera, d400_color_optical_frame: intrinsics [fx, cx, fy, cy],
+// radial-tangential coefficients, size, rate) and trans_matrix.yaml (parent_frame, child_frame,
+// matrix: base_link to the camera, possibly through other frames). Throws std::runtime_error naming
+// the file and what is missing.
+DatasetPreset openLorisCalibration(const std::filesystem::path& folder);
 // Writes the settings file of `p`, whole or not at all.
 void writePresetSettings(const DatasetPreset& p, const std::filesystem::path& file);
 

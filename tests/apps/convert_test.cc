@@ -182,6 +182,61 @@ TEST(Convert, OpenLorisFolderWithOdometry) {
   }
   EXPECT_EQ(scans, 4);
   EXPECT_EQ(odos, 20);
+  EXPECT_FALSE(fs::exists(out.parent_path() / "settings.yaml")) << "no calibration files, no settings";
+}
+
+// An OpenLORIS-Scene sequence ships its calibration beside the data: sensors.yaml (the D435i
+// colour camera's intrinsics as [fx, cx, fy, cy], as published for the dataset) and
+// trans_matrix.yaml (transforms by parent and child frame). The settings take the camera from the
+// one and T_b_c from a chain of the other, walked either way round.
+TEST(Convert, OpenLorisSettingsFromTheSequencesOwnCalibration) {
+  const fs::path d = fresh("rvwo_conv_loris_calib");
+  std::ofstream(d / "color.txt") << "1560000000.0 color/0.png\n";
+  std::ofstream(d / "aligned_depth.txt") << "1560000000.001 aligned_depth/0.png\n";
+  std::ofstream(d / "odom.txt") << "1560000000.0 0 0 0 0 0 0 1 0 0 0 0 0 0\n";
+  image(d / "color" / "0.png", 100);
+  image(d / "aligned_depth" / "0.png", 1500, CV_16UC1);
+  std::ofstream(d / "sensors.yaml")
+      << "%YAML:1.0\nd400_color_optical_frame:\n   sensor_type: camera\n   sensor_name: d400_color_optical_frame\n"
+         "   fps: 30\n   width: 848\n   height: 480\n   model: pinhole\n   intrinsics: !!opencv-matrix\n"
+         "      rows: 1\n      cols: 4\n      dt: d\n      data: [ 6.1145098876953125e+02, 4.3320397949218750e+02,\n"
+         "          6.1148571777343750e+02, 2.4947302246093750e+02 ]\n   distortion_model: radial-tangential\n"
+         "   distortion_coefficients: !!opencv-matrix\n      rows: 1\n      cols: 5\n      dt: d\n"
+         "      data: [ 0.01, -0.02, 0.001, -0.002, 0.003 ]\n";
+  // base_link -> d400_link: 0.2 m ahead, 0.9 m up; the optical frame -> d400_link (the other way round).
+  std::ofstream(d / "trans_matrix.yaml")
+      << "%YAML:1.0\ntrans_matrix:\n"
+         "   - parent_frame: base_link\n     child_frame: d400_link\n     matrix: !!opencv-matrix\n"
+         "        rows: 4\n        cols: 4\n        dt: d\n"
+         "        data: [ 1, 0, 0, 0.2, 0, 1, 0, 0, 0, 0, 1, 0.9, 0, 0, 0, 1 ]\n"
+         "   - parent_frame: d400_color_optical_frame\n     child_frame: d400_link\n     matrix: !!opencv-matrix\n"
+         "        rows: 4\n        cols: 4\n        dt: d\n"
+         "        data: [ 0, -1, 0, 0.015, 0, 0, -1, 0, 1, 0, 0, 0, 0, 0, 0, 1 ]\n";
+  const fs::path out = fresh("rvwo_conv_loris_calib_out") / "loris.rawlog";
+  std::string err;
+  ASSERT_EQ(convert("openloris --in " + d.string() + " --out " + out.string(), &err), 0) << err;
+  cv::FileStorage fs((out.parent_path() / "settings.yaml").string(), cv::FileStorage::READ);
+  ASSERT_TRUE(fs.isOpened());
+  EXPECT_DOUBLE_EQ(double(fs["Camera1.fx"]), 611.4509887695312);
+  EXPECT_DOUBLE_EQ(double(fs["Camera1.cx"]), 433.2039794921875);
+  EXPECT_DOUBLE_EQ(double(fs["Camera1.fy"]), 611.4857177734375);
+  EXPECT_DOUBLE_EQ(double(fs["Camera1.cy"]), 249.4730224609375);
+  EXPECT_DOUBLE_EQ(double(fs["Camera1.p2"]), -0.002);
+  EXPECT_EQ(int(fs["Camera.width"]), 848);
+  EXPECT_EQ(std::string(fs["Sensor"]), "rgbd");
+  EXPECT_EQ(double(fs["RGBD.DepthMapFactor"]), 1000.0);
+  EXPECT_EQ(std::string(fs["Odometry.Input"]), "pose");
+  cv::Mat T;
+  fs["Camera.T_b_c"] >> T;
+  // T_b_c = T_b_link * inverse(T_c_link): the optical axis (z) ahead along x, x right (-y), y down (-z).
+  const cv::Mat expected = (cv::Mat_<double>(4, 4) << 0, 0, 1, 0.2, -1, 0, 0, 0.015, 0, -1, 0, 0.9, 0, 0, 0, 1);
+  EXPECT_LT(cv::norm(T - expected, cv::NORM_INF), 1e-12) << T;
+  // Damaged calibration: one line naming the file, before anything is written.
+  std::ofstream(d / "trans_matrix.yaml") << "%YAML:1.0\ntrans_matrix: []\n";
+  fs::remove(out.parent_path() / "settings.yaml");
+  EXPECT_EQ(WEXITSTATUS(convert("openloris --in " + d.string() + " --out " + out.string(), &err)), 1);
+  EXPECT_EQ(err, "rvwo-convert: error: " + (d / "trans_matrix.yaml").string() +
+                     ": no chain of transforms from base_link to d400_color_optical_frame\n");
 }
 
 TEST(Convert, GenericFolderMonoAndStereo) {
