@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Fuzzes RVWO's readers (tests/fuzz: rawlog, settings, trajectory) with libFuzzer under ASan and
-# UBSan: a clang build of the fuzz targets in build-fuzz/, then each target for RVWO_FUZZ_SECONDS
-# (60) from its regression corpus (tests/fuzz/regressions/<target>/) and seeds the simulator makes
-# (build/'s rvwo-sim, when built). Prints the runs per target; exits 1 on a crash, whose input is
-# kept in build-fuzz/crashes/<target>/ (once fixed, add it to the regression corpus).
+# Fuzzes RVWO's readers (tests/fuzz: rawlog, settings, trajectory, rvwo-convert's folder lists)
+# with libFuzzer under ASan and UBSan: a clang build of the fuzz targets in build-fuzz/, then each
+# target for RVWO_FUZZ_SECONDS (60) from its regression corpus (tests/fuzz/regressions/<target>/)
+# and seeds the simulator makes (build/'s rvwo-sim, when built). Prints the runs per target; exits 1
+# on a crash, whose input is kept in build-fuzz/crashes/<target>/ (once fixed, add it to the
+# regression corpus).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
@@ -12,7 +13,7 @@ OUT=build-fuzz
 CC=clang CXX=clang++ cmake -S . -B "$OUT" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRVWO_FUZZ=ON \
   -DRVWO_SANITIZE=address,undefined -DRVWO_BUILD_BENCHMARKS=OFF -DRVWO_WITH_G2O=OFF \
   >"$OUT-configure.log" 2>&1 || { cat "$OUT-configure.log"; exit 1; }
-cmake --build "$OUT" --target fuzz_rawlog fuzz_settings fuzz_trajectory
+cmake --build "$OUT" --target fuzz_rawlog fuzz_settings fuzz_trajectory fuzz_convert
 
 seeds="$OUT/seeds"
 rm -rf "$seeds"
@@ -20,7 +21,7 @@ if [ -x build/apps/rvwo-sim ]; then
   build/apps/rvwo-sim --quiet --scenario scenarios/static.yaml --out "$seeds" --seed 7 --duration 0.5 >/dev/null
 fi
 status=0
-for target in rawlog settings trajectory; do
+for target in rawlog settings trajectory convert; do
   corpus="$OUT/corpus/$target" crashes="$OUT/crashes/$target"
   rm -rf "$crashes"
   mkdir -p "$corpus" "$crashes"
@@ -29,6 +30,7 @@ for target in rawlog settings trajectory; do
     rawlog) [ -f "$seeds/sequence.rawlog" ] && cp "$seeds/sequence.rawlog" "$corpus/seed.rawlog" ;;
     settings) [ -f "$seeds/settings.yaml" ] && cp "$seeds/settings.yaml" "$seeds/scenario.yaml" "$corpus/" ;;
     trajectory) [ -f "$seeds/groundtruth.txt" ] && cp "$seeds/groundtruth.txt" "$corpus/" ;;
+    convert) [ -f "$seeds/groundtruth.txt" ] && { printf '\002' | cat - "$seeds/groundtruth.txt" >"$corpus/seed_csv"; } ;;
   esac
   log="$OUT/fuzz_$target.log"
   # Fork mode goes on past an input that asks for more memory than the limit: MRPT 2.5 allocates a
