@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "rvwo/settings/settings.h"
 #include "support/output.h"
 
 namespace rvwo::apps {
@@ -73,6 +74,12 @@ bool chain(const std::map<std::pair<std::string, std::string>, cv::Matx44d>& edg
 DatasetPreset openLorisCalibration(const std::filesystem::path& folder) {
   const std::string sensors_path = (folder / "sensors.yaml").string(),
                     trans_path = (folder / "trans_matrix.yaml").string();
+  for (const std::string& path : {sensors_path, trans_path}) {  // what OpenCV's parser may not be given
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    if (in) checkYamlText(path, text.str());
+  }
   cv::FileStorage sensors, trans;
   try {
     sensors.open(sensors_path, cv::FileStorage::READ);

@@ -85,6 +85,11 @@ TEST(Settings, SyntaxErrorsAndKeysGivenTwiceNameTheirLines) {
   // OpenCV's parser looped for ever on this one (fuzzing found it): refused before it reads.
   EXPECT_EQ(errorOf("%YAML:1.0\n# a comment\n\n   data: []\nOdo-e:1.0\n"),
             bad.string() + ": line 4: the first key is indented (top-level keys start in the first column)");
+  // And on a NUL amid keys (fuzzing found it, tests/fuzz/regressions/settings/opencv_loop_on_nul):
+  // a control character YAML does not allow is refused with its line; CRs are not.
+  EXPECT_EQ(errorOf(std::string("%YAML:1.0\nA: 1\nB: \0\0x\n", 20)),
+            bad.string() + ": line 3: a control character (byte 0x00): a settings file is text (a damaged copy?)");
+  EXPECT_EQ(errorOf("%YAML:1.0\r\nA: 1\r\n"), "loaded");
   expectError([] { Settings::fromString("%YAML:1.0\nA: 1\nA: 2\n", "t.yaml"); },
               "t.yaml: A is given twice (lines 2 and 3): keep one");
   fs::remove(bad);

@@ -3,6 +3,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -77,6 +78,21 @@ void checkFirstKey(const std::string& name, const std::string& text) {
 
 }  // namespace
 
+void checkYamlText(const std::string& name, const std::string& text) {
+  int line = 1;
+  for (const char c : text) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 && c != '\t' && c != '\n' && c != '\r') {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02x", u);
+      throw std::runtime_error(name + ": line " + std::to_string(line) + ": a control character (byte " + hex +
+                               "): a settings file is text (a damaged copy?)");
+    }
+    line += c == '\n';
+  }
+  checkFirstKey(name, text);
+}
+
 Settings Settings::load(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw std::runtime_error(path + ": settings file not found");
@@ -86,7 +102,7 @@ Settings Settings::load(const std::string& path) {
   if (!in) throw std::runtime_error(path + ": cannot be read");
   if (text.str().rfind("%YAML", 0) != 0)
     throw std::runtime_error(path + ": not a settings YAML file (its first line must be %YAML:1.0)");
-  checkFirstKey(path, text.str());
+  checkYamlText(path, text.str());
   Settings s;
   s.path_ = path;
   try {
@@ -101,7 +117,7 @@ Settings Settings::load(const std::string& path) {
 }
 
 Settings Settings::fromString(const std::string& yaml, const std::string& name) {
-  checkFirstKey(name, yaml);
+  checkYamlText(name, yaml);
   Settings s;
   s.path_ = name;
   try {

@@ -27,6 +27,12 @@
 
 namespace rvwo {
 
+// What OpenCV 4.6's YAML parser is not given, since it loops for ever on some damaged files
+// (fuzzing found them): a control character YAML does not allow (a NUL, ...), a first key that is
+// indented. Throws std::runtime_error "<name>: line N: ..." (Settings::load and fromString call
+// it; so must any other reader that hands a file to cv::FileStorage).
+void checkYamlText(const std::string& name, const std::string& text);
+
 class Settings {
  public:
   // Throws std::runtime_error "<path>: ..." when the file is missing, is not a FileStorage YAML
