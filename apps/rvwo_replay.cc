@@ -254,6 +254,13 @@ class ReplayApp {
     if (!survey.whole) return;  // all seen, or damaged before: the replay reports it where it comes
     const std::string& rawlog = req().rawlog;
     if (survey.records == 0) throw std::runtime_error(rawlog + ": no records (an empty rawlog)");
+    // A label the settings do not name: the file's only sensor of the class asked for (MRPT's own
+    // RGB-D grabbers write OPENNI2, ...), said on stdout.
+    const char* camera_class = rig_.sensor == rvwo::estimator::Sensor::kRgbd     ? "CObservation3DRangeScan"
+                               : rig_.sensor == rvwo::estimator::Sensor::kStereo ? "CObservationStereoImages"
+                                                                                 : "CObservationImage";
+    adoptOnlyLabel(survey, "Rawlog.CameraLabel", camera_class, &camera_label_);
+    if (wheels) adoptOnlyLabel(survey, "Rawlog.OdometryLabel", "CObservationOdometry", &odometry_label_);
     if (!survey.has(camera_label_))
       throw std::runtime_error(rawlog + ": no camera frames (sensor label '" + camera_label_ + "'; the file has " +
                                survey.describe() + "): set Rawlog.CameraLabel in " + req().settings);
@@ -261,6 +268,22 @@ class ReplayApp {
       throw std::runtime_error(rawlog + ": no odometry (sensor label '" + odometry_label_ + "'; the file has " +
                                survey.describe() + "): set Rawlog.OdometryLabel in " + req().settings +
                                ", or run --mode vo");
+  }
+
+  // When the file has no sensor `*label` and the settings do not name one (`key`): its only sensor
+  // of `type`, if it has exactly one.
+  void adoptOnlyLabel(const rvwo::apps::RawlogSurvey& survey, const char* key, const char* type, std::string* label) {
+    if (survey.has(*label) || settings_->text(key)) return;
+    const rvwo::apps::RawlogSurvey::Sensor* only = nullptr;
+    for (const auto& s : survey.sensors) {
+      if (s.type != type) continue;
+      if (only) return;  // two or more: the settings must say which
+      only = &s;
+    }
+    if (!only) return;
+    std::printf("rvwo-replay: %s: sensor label '%s' (the file's only %s; %s is '%s' by default)\n",
+                req().rawlog.c_str(), only->label.c_str(), type, key, label->c_str());
+    *label = only->label;
   }
 
   // The gz stream whole before any record is used: a damaged one is refused (its CRC covers the

@@ -162,6 +162,61 @@ TEST(Replay, MissingSensorsAreNamedWithWhatTheFileHas) {
   fs::remove_all(dir);
 }
 
+// A sensor under a label the settings do not name is taken when it is the file's only one of its
+// class, and the replay says so: odometry relabelled WHEELS here; a real RGB-D frame written by
+// MRPT's own grabber (label OPENNI2, ../shared) below. Named in the settings, a label is as given
+// (the test above).
+TEST(Replay, TheOnlySensorOfItsClassIsTakenUnderItsOwnLabel) {
+  const fs::path dir = simulate("static", 2);
+  {
+    RawlogReader in((dir / "sequence.rawlog").string());
+    RawlogWriter out((dir / "wheels.rawlog").string());
+    while (auto o = in.next()) {
+      if ((*o)->sensorLabel == "ODOMETRY") (*o)->sensorLabel = "WHEELS";
+      out.write(**o);
+    }
+  }
+  fs::create_directory_symlink(dir / "sequence_Images", dir / "wheels_Images");
+  std::string out, err;
+  const std::string rawlog = (dir / "wheels.rawlog").string();
+  ASSERT_EQ(replayRaw(dir, "settings.yaml", "--deterministic --rawlog " + rawlog + " --out " + (dir / "t.txt").string(),
+                      &out, &err),
+            0)
+      << err;
+  EXPECT_EQ(out.rfind("rvwo-replay: " + rawlog +
+                          ": sensor label 'WHEELS' (the file's only CObservationOdometry; Rawlog.OdometryLabel is "
+                          "'ODOMETRY' by default)\n",
+                      0),
+            0u)
+      << out;
+  EXPECT_EQ(out.find("odometry records used"), std::string::npos) << "every reading used";
+  EXPECT_EQ(lines(dir / "t.txt"), lines(dir / "groundtruth.txt"));
+  fs::remove_all(dir);
+
+  const std::string mrpt = std::string(RVWO_SHARED_DIR) + "/data/mrpt_rawlogs/rgbd_one_frame.rawlog";
+  if (!fs::exists(mrpt)) GTEST_SKIP() << "../shared is absent: no rawlog of MRPT's RGB-D grabber";
+  const fs::path d = rvwo::test::scratch("replay_openni2");
+  fs::create_directories(d);
+  std::ofstream(d / "rgbd.yaml") << "%YAML:1.0\nSensor: \"rgbd\"\nCamera1.fx: 525.0\nCamera1.fy: 525.0\n"
+                                    "Camera1.cx: 319.5\nCamera1.cy: 239.5\nCamera.width: 640\nCamera.height: 480\n"
+                                    "Camera.fps: 30\nRGBD.DepthMapFactor: 1000\nCamera.T_b_c: !!opencv-matrix\n"
+                                    "   rows: 4\n   cols: 4\n   dt: d\n"
+                                    "   data: [0, 0, 1, 0, -1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 0, 1]\n";
+  ASSERT_EQ(replayRaw(d, "rgbd.yaml", "--mode vo --rawlog " + mrpt + " --out " + (d / "t.txt").string(), &out, &err), 0)
+      << err;
+  EXPECT_EQ(out.rfind("rvwo-replay: " + mrpt +
+                          ": sensor label 'OPENNI2' (the file's only CObservation3DRangeScan; Rawlog.CameraLabel is "
+                          "'RGBD' by default)\n",
+                      0),
+            0u)
+      << out;
+  EXPECT_EQ(lines(d / "t.txt"), 1u);
+  unsigned points = 0;
+  ASSERT_EQ(std::sscanf(out.c_str() + out.find("map points made "), "map points made %u", &points), 1) << out;
+  EXPECT_GT(points, 300u) << "the real frame's depth gives points";
+  fs::remove_all(d);
+}
+
 // --mode vw with odometry none of which can be used (encoder ticks asked of a rawlog whose
 // readings carry none) is an error, not a vision-only run.
 TEST(Replay, VwWithoutUsableOdometryIsAnError) {
