@@ -259,6 +259,11 @@ TEST(Bag, BadBagsGetOneLineAndLeaveNothing) {
 TEST(Bag, StereoRos1WithOdometryReplaysAsTheRawlog) { roundTrip({"stereo", "ros1", "odometry", "pose", ""}); }
 TEST(Bag, RgbdRos2SqliteWithWheelAnglesReplaysAsTheRawlog) { roundTrip({"rgbd", "sqlite3", "joints", "encoders", ""}); }
 TEST(Bag, MonoRos2McapCompressedWithTwistReplaysAsTheRawlog) { roundTrip({"mono", "mcap", "twist", "velocities", ""}); }
+TEST(Bag, MonoRos1WithWheelAnglesReplaysAsTheRawlog) { roundTrip({"mono", "ros1", "joints", "encoders", ""}); }
+TEST(Bag, RgbdRos2McapWithOdometryReplaysAsTheRawlog) { roundTrip({"rgbd", "mcap", "odometry", "pose", ""}); }
+TEST(Bag, RgbdRos2SqliteWithWheelSpeedsReplaysAsTheRawlog) {
+  roundTrip({"rgbd", "sqlite3", "speeds", "velocities", " --wheel-radius 0.08 --track 0.4"});
+}
 // Wheel speeds alone: the robot's speed and turn rate through the wheels given on the command line.
 TEST(Bag, StereoRos2McapWithWheelSpeedsReplaysAsTheRawlog) {
   roundTrip({"stereo", "mcap", "speeds", "velocities", " --wheel-radius 0.08 --track 0.4"});
