@@ -235,14 +235,14 @@ void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
 }
 
 // The preset asked for, the one a TUM folder's name gives, or an OpenLORIS-Scene sequence's own
-// calibration files (RGB-D); none: nullopt.
+// calibration files; none: nullopt.
 std::optional<rvwo::apps::DatasetPreset> presetOf(ConvertArgs& args, const fs::path& in) {
   const std::string& kind = args.kind.getValue();
   if (args.preset.isSet()) return rvwo::apps::datasetPreset(kind, args.preset.getValue());
   if (kind == "tum" && !rvwo::apps::tumPresetOfFolder(in).empty())
     return rvwo::apps::datasetPreset(kind, rvwo::apps::tumPresetOfFolder(in));
-  if (kind == "openloris" && !args.fisheye.getValue() && fs::exists(in / "sensors.yaml"))
-    return rvwo::apps::openLorisCalibration(in);
+  if (kind == "openloris" && fs::exists(in / "sensors.yaml"))
+    return rvwo::apps::openLorisCalibration(in, args.fisheye.getValue());
   return std::nullopt;
 }
 
@@ -250,10 +250,7 @@ std::optional<rvwo::apps::DatasetPreset> presetOf(ConvertArgs& args, const fs::p
 std::string noSettingsReason(ConvertArgs& args) {
   if (args.kind.getValue() == "tum") return "give --preset fr1, fr2 or fr3 (the folder's name names no Freiburg rig)";
   if (args.kind.getValue() == "openloris")
-    return args.fisheye.getValue() ? "the T265 pair's calibration is not read yet: write them from the sequence's "
-                                     "sensors.yaml (docs/datasets.md)"
-                                   : "the folder has no sensors.yaml and trans_matrix.yaml: copy them in from the "
-                                     "sequence's download";
+    return "the folder has no sensors.yaml and trans_matrix.yaml: copy them in from the sequence's download";
   return "write them for your camera (docs/rawlog.md)";
 }
 

@@ -1,6 +1,8 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 #include "convert/presets.h"
 
+#include <algorithm>
+#include <cctype>
 #include <fstream>
 #include <map>
 #include <opencv2/core.hpp>
@@ -71,68 +73,138 @@ bool chain(const std::map<std::pair<std::string, std::string>, cv::Matx44d>& edg
 
 }  // namespace
 
-DatasetPreset openLorisCalibration(const std::filesystem::path& folder) {
-  const std::string sensors_path = (folder / "sensors.yaml").string(),
-                    trans_path = (folder / "trans_matrix.yaml").string();
-  for (const std::string& path : {sensors_path, trans_path}) {  // what OpenCV's parser may not be given
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    if (in) checkYamlText(path, text.str());
-  }
-  cv::FileStorage sensors, trans;
-  try {
-    sensors.open(sensors_path, cv::FileStorage::READ);
-    trans.open(trans_path, cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error(folder.string() + ": sensors.yaml or trans_matrix.yaml is not readable YAML (" + e.msg +
-                             ")");
-  }
-  if (!sensors.isOpened() || !trans.isOpened())
-    throw std::runtime_error(folder.string() + ": no sensors.yaml and trans_matrix.yaml (the sequence's calibration)");
-  const std::string camera = "d400_color_optical_frame";
-  const cv::FileNode c = sensors[camera];
+namespace {
+
+// One camera of sensors.yaml: fx, fy, cx, cy (stored fx, cx, fy, cy), size, rate, coefficients.
+struct LorisCamera {
+  double fx, fy, cx, cy, fps;
+  int width, height;
+  std::vector<double> coefficients;
+  std::string model;
+};
+
+LorisCamera lorisCamera(const cv::FileStorage& sensors, const std::string& path, const std::string& name) {
+  const cv::FileNode c = sensors[name];
   cv::Mat intrinsics, distortion;
   if (!c.empty()) {
     c["intrinsics"] >> intrinsics;
     c["distortion_coefficients"] >> distortion;
   }
-  if (intrinsics.total() != 4 || std::string(c["distortion_model"]) != "radial-tangential" || distortion.total() > 5)
-    throw std::runtime_error(sensors_path + ": no " + camera +
-                             " with intrinsics [fx, cx, fy, cy] and radial-tangential distortion_coefficients");
+  if (intrinsics.total() != 4 || distortion.empty())
+    throw std::runtime_error(path + ": no " + name + " with intrinsics [fx, cx, fy, cy] and distortion_coefficients");
+  intrinsics.reshape(1, 1).convertTo(intrinsics, CV_64F);
+  distortion.reshape(1, 1).convertTo(distortion, CV_64F);
+  LorisCamera cam{intrinsics.at<double>(0),
+                  intrinsics.at<double>(2),
+                  intrinsics.at<double>(1),
+                  intrinsics.at<double>(3),
+                  double(c["fps"]),
+                  int(c["width"]),
+                  int(c["height"]),
+                  std::vector<double>(distortion.begin<double>(), distortion.end<double>()),
+                  std::string(c["distortion_model"])};
+  return cam;
+}
+
+// sensors.yaml and trans_matrix.yaml, checked before OpenCV parses them; the transforms by frames.
+struct LorisFiles {
+  std::string sensors_path, trans_path;
+  cv::FileStorage sensors;
   std::map<std::pair<std::string, std::string>, cv::Matx44d> edges;
-  for (const cv::FileNode& row : trans["trans_matrix"]) {
-    cv::Mat M;
-    row["matrix"] >> M;
-    if (M.rows != 4 || M.cols != 4)
-      throw std::runtime_error(trans_path + ": the matrix of " + std::string(row["parent_frame"]) + " to " +
-                               std::string(row["child_frame"]) + " is not 4x4");
-    M.convertTo(M, CV_64F);
-    edges[{std::string(row["parent_frame"]), std::string(row["child_frame"])}] = cv::Matx44d(M);
+
+  explicit LorisFiles(const std::filesystem::path& folder)
+      : sensors_path((folder / "sensors.yaml").string()), trans_path((folder / "trans_matrix.yaml").string()) {
+    for (const std::string& path : {sensors_path, trans_path}) {  // what OpenCV's parser may not be given
+      std::ifstream in(path);
+      std::stringstream text;
+      text << in.rdbuf();
+      if (in) checkYamlText(path, text.str());
+    }
+    cv::FileStorage trans;
+    try {
+      sensors.open(sensors_path, cv::FileStorage::READ);
+      trans.open(trans_path, cv::FileStorage::READ);
+    } catch (const cv::Exception& e) {
+      throw std::runtime_error(folder.string() + ": sensors.yaml or trans_matrix.yaml is not readable YAML (" + e.msg +
+                               ")");
+    }
+    if (!sensors.isOpened() || !trans.isOpened())
+      throw std::runtime_error(folder.string() +
+                               ": no sensors.yaml and trans_matrix.yaml (the sequence's calibration)");
+    for (const cv::FileNode& row : trans["trans_matrix"]) {
+      cv::Mat M;
+      row["matrix"] >> M;
+      if (M.rows != 4 || M.cols != 4)
+        throw std::runtime_error(trans_path + ": the matrix of " + std::string(row["parent_frame"]) + " to " +
+                                 std::string(row["child_frame"]) + " is not 4x4");
+      M.convertTo(M, CV_64F);
+      edges[{std::string(row["parent_frame"]), std::string(row["child_frame"])}] = cv::Matx44d(M);
+    }
   }
-  cv::Matx44d T;
-  if (!chain(edges, "base_link", camera, &T))
-    throw std::runtime_error(trans_path + ": no chain of transforms from base_link to " + camera);
+
+  std::array<double, 16> transform(const std::string& from, const std::string& to) const {
+    cv::Matx44d T;
+    if (!chain(edges, from, to, &T))
+      throw std::runtime_error(trans_path + ": no chain of transforms from " + from + " to " + to);
+    std::array<double, 16> out;
+    for (int i = 0; i < 16; ++i) out[i] = T(i / 4, i % 4);
+    return out;
+  }
+};
+
+bool kannalaBrandt(const std::string& model) {
+  std::string m;
+  for (char c : model) m += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return m.find("equi") != std::string::npos || m.find("kannala") != std::string::npos ||
+         m.find("fisheye") != std::string::npos || m.find("kb4") != std::string::npos;
+}
+
+}  // namespace
+
+DatasetPreset openLorisCalibration(const std::filesystem::path& folder, bool fisheye) {
+  const LorisFiles files(folder);
+  const std::string left = fisheye ? "t265_fisheye1_optical_frame" : "d400_color_optical_frame";
+  const LorisCamera c = lorisCamera(files.sensors, files.sensors_path, left);
   DatasetPreset p;
   p.kind = "openloris";
   p.name = "(the sequence's own)";
-  p.title = "OpenLORIS-Scene, RealSense D435i colour and aligned depth, on the robot's base_link";
   p.source = "the sequence's sensors.yaml and trans_matrix.yaml (OpenLORIS-Scene, Shi et al., ICRA 2020)";
-  p.sensor = "rgbd";
-  p.width = int(c["width"]);
-  p.height = int(c["height"]);
-  p.fps = double(c["fps"]);
-  const cv::Mat k = intrinsics.reshape(1, 1);
-  k.convertTo(intrinsics, CV_64F);
-  p.fx = intrinsics.at<double>(0);
-  p.cx = intrinsics.at<double>(1);
-  p.fy = intrinsics.at<double>(2);
-  p.cy = intrinsics.at<double>(3);
-  distortion.reshape(1, 1).convertTo(distortion, CV_64F);
-  for (int i = 0; i < static_cast<int>(distortion.total()); ++i) p.radtan[i] = distortion.at<double>(i);
-  p.depth_factor = 1000;
-  for (int i = 0; i < 16; ++i) p.T_b_c[i] = T(i / 4, i % 4);
+  p.width = c.width;
+  p.height = c.height;
+  p.fps = c.fps;
+  p.fx = c.fx;
+  p.fy = c.fy;
+  p.cx = c.cx;
+  p.cy = c.cy;
+  p.T_b_c = files.transform("base_link", left);
   p.odometry_input = "pose";
+  if (!fisheye) {
+    if (c.model != "radial-tangential" || c.coefficients.size() > 5)
+      throw std::runtime_error(files.sensors_path + ": " + left + ": distortion_model '" + c.model +
+                               "', not radial-tangential with at most 5 coefficients");
+    p.title = "OpenLORIS-Scene, RealSense D435i colour and aligned depth, on the robot's base_link";
+    p.sensor = "rgbd";
+    std::copy(c.coefficients.begin(), c.coefficients.end(), p.radtan.begin());
+    p.depth_factor = 1000;
+    return p;
+  }
+  const std::string right_name = "t265_fisheye2_optical_frame";
+  const LorisCamera r = lorisCamera(files.sensors, files.sensors_path, right_name);
+  for (const LorisCamera* cam : {&c, &r}) {
+    if (!kannalaBrandt(cam->model) || cam->coefficients.size() < 4)
+      throw std::runtime_error(files.sensors_path + ": a T265 camera's distortion_model '" + cam->model +
+                               "', not an equidistant (Kannala-Brandt) one with k1..k4");
+  }
+  p.title = "OpenLORIS-Scene, RealSense T265 fisheye pair, on the robot's base_link";
+  p.sensor = "stereo";
+  p.fisheye_pair = true;
+  std::copy_n(c.coefficients.begin(), 4, p.kb_left.begin());
+  std::copy_n(r.coefficients.begin(), 4, p.kb_right.begin());
+  p.fx2 = r.fx;
+  p.fy2 = r.fy;
+  p.cx2 = r.cx;
+  p.cy2 = r.cy;
+  p.T_c1_c2 = files.transform(left, right_name);
   return p;
 }
 
@@ -174,16 +246,27 @@ void writePresetSettings(const DatasetPreset& p, const std::filesystem::path& fi
     << "# written by rvwo-convert --preset " << p.name << ": " << p.title << "\n"
     << "# camera: " << p.source << "\n"
     << "Sensor: \"" << p.sensor << "\"\n"
-    << "Camera.type: \"PinHole\"\n"
+    << "Camera.type: \"" << (p.fisheye_pair ? "KannalaBrandt8" : "PinHole") << "\"\n"
     << "Camera1.fx: " << p.fx << "\nCamera1.fy: " << p.fy << "\nCamera1.cx: " << p.cx << "\nCamera1.cy: " << p.cy
     << "\n";
-  const char* keys[5] = {"k1", "k2", "p1", "p2", "k3"};
-  for (int i = 0; i < 5; ++i) o << "Camera1." << keys[i] << ": " << p.radtan[i] << "\n";
+  auto matrix = [&](const char* key, const std::array<double, 16>& m) {
+    o << key << ": !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n   data: [";
+    for (int i = 0; i < 16; ++i) o << (i ? ", " : "") << m[i];
+    o << "]\n";
+  };
+  if (p.fisheye_pair) {
+    for (int i = 0; i < 4; ++i) o << "Camera1.k" << i + 1 << ": " << p.kb_left[i] << "\n";
+    o << "Camera2.fx: " << p.fx2 << "\nCamera2.fy: " << p.fy2 << "\nCamera2.cx: " << p.cx2 << "\nCamera2.cy: " << p.cy2
+      << "\n";
+    for (int i = 0; i < 4; ++i) o << "Camera2.k" << i + 1 << ": " << p.kb_right[i] << "\n";
+    matrix("Stereo.T_c1_c2", p.T_c1_c2);
+  } else {
+    const char* keys[5] = {"k1", "k2", "p1", "p2", "k3"};
+    for (int i = 0; i < 5; ++i) o << "Camera1." << keys[i] << ": " << p.radtan[i] << "\n";
+  }
   o << "Camera.width: " << p.width << "\nCamera.height: " << p.height << "\nCamera.fps: " << p.fps << "\n";
   if (p.depth_factor > 0) o << "RGBD.DepthMapFactor: " << p.depth_factor << "\n";
-  o << "Camera.T_b_c: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n   data: [";
-  for (int i = 0; i < 16; ++i) o << (i ? ", " : "") << p.T_b_c[i];
-  o << "]\n";
+  matrix("Camera.T_b_c", p.T_b_c);
   if (!p.odometry_input.empty()) o << "Odometry.Input: \"" << p.odometry_input << "\"\n";
   o << "Semantics.LabelSet: \"voc21\"\n";
   writeWhole(file.string(), [&](const std::string& tmp) {

@@ -231,6 +231,43 @@ TEST(Convert, OpenLorisSettingsFromTheSequencesOwnCalibration) {
   // T_b_c = T_b_link * inverse(T_c_link): the optical axis (z) ahead along x, x right (-y), y down (-z).
   const cv::Mat expected = (cv::Mat_<double>(4, 4) << 0, 0, 1, 0.2, -1, 0, 0, 0.015, 0, -1, 0, 0.9, 0, 0, 0, 1);
   EXPECT_LT(cv::norm(T - expected, cv::NORM_INF), 1e-12) << T;
+  // The T265 pair (--fisheye) from the same two files: Kannala-Brandt k1..k4 (the first four of its
+  // coefficients), the right camera in the left's frame, the left on the base.
+  std::ofstream(d / "fisheye1.txt") << "1560000000.0 fisheye1/0.png\n";
+  std::ofstream(d / "fisheye2.txt") << "1560000000.0 fisheye2/0.png\n";
+  image(d / "fisheye1" / "0.png", 90, CV_8UC1);
+  image(d / "fisheye2" / "0.png", 90, CV_8UC1);
+  std::ofstream(d / "sensors.yaml", std::ios::app)
+      << "t265_fisheye1_optical_frame:\n   fps: 30\n   width: 848\n   height: 800\n   intrinsics: !!opencv-matrix\n"
+         "      rows: 1\n      cols: 4\n      dt: d\n      data: [ 285.1, 424.6, 285.2, 398.9 ]\n"
+         "   distortion_model: equidistant\n   distortion_coefficients: !!opencv-matrix\n      rows: 1\n"
+         "      cols: 5\n      dt: d\n      data: [ -0.006, 0.041, -0.039, 0.007, 0. ]\n"
+         "t265_fisheye2_optical_frame:\n   fps: 30\n   width: 848\n   height: 800\n   intrinsics: !!opencv-matrix\n"
+         "      rows: 1\n      cols: 4\n      dt: d\n      data: [ 284.9, 421.3, 285.0, 400.2 ]\n"
+         "   distortion_model: equidistant\n   distortion_coefficients: !!opencv-matrix\n      rows: 1\n"
+         "      cols: 5\n      dt: d\n      data: [ -0.005, 0.040, -0.038, 0.006, 0. ]\n";
+  std::ofstream(d / "trans_matrix.yaml", std::ios::app)
+      << "   - parent_frame: base_link\n     child_frame: t265_fisheye1_optical_frame\n     matrix: !!opencv-matrix\n"
+         "        rows: 4\n        cols: 4\n        dt: d\n"
+         "        data: [ 0, 0, 1, 0.25, -1, 0, 0, 0.03, 0, -1, 0, 0.8, 0, 0, 0, 1 ]\n"
+         "   - parent_frame: t265_fisheye1_optical_frame\n     child_frame: t265_fisheye2_optical_frame\n"
+         "     matrix: !!opencv-matrix\n        rows: 4\n        cols: 4\n        dt: d\n"
+         "        data: [ 1, 0, 0, 0.064, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1 ]\n";
+  ASSERT_EQ(convert("openloris --fisheye --in " + d.string() + " --out " + out.string(), &err), 0) << err;
+  cv::FileStorage t265((out.parent_path() / "settings.yaml").string(), cv::FileStorage::READ);
+  EXPECT_EQ(std::string(t265["Sensor"]), "stereo");
+  EXPECT_EQ(std::string(t265["Camera.type"]), "KannalaBrandt8");
+  EXPECT_DOUBLE_EQ(double(t265["Camera1.fx"]), 285.1);
+  EXPECT_DOUBLE_EQ(double(t265["Camera1.cx"]), 424.6);
+  EXPECT_DOUBLE_EQ(double(t265["Camera1.k4"]), 0.007);
+  EXPECT_DOUBLE_EQ(double(t265["Camera2.cy"]), 400.2);
+  EXPECT_DOUBLE_EQ(double(t265["Camera2.k1"]), -0.005);
+  EXPECT_EQ(int(t265["Camera.height"]), 800);
+  cv::Mat T12, Tbc;
+  t265["Stereo.T_c1_c2"] >> T12;
+  t265["Camera.T_b_c"] >> Tbc;
+  EXPECT_DOUBLE_EQ(T12.at<double>(0, 3), 0.064);
+  EXPECT_DOUBLE_EQ(Tbc.at<double>(2, 3), 0.8);
   // Damaged calibration: one line naming the file, before anything is written.
   std::ofstream(d / "trans_matrix.yaml") << "%YAML:1.0\ntrans_matrix: []\n";
   fs::remove(out.parent_path() / "settings.yaml");
