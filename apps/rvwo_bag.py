@@ -13,6 +13,7 @@ camera-to-base transform; the last line names what the user must still supply.
 import argparse
 import math
 import os
+import shutil
 import struct
 import subprocess
 import sys
@@ -183,7 +184,6 @@ class Conversion:
             path = folder / (name + ext)
             path.write_bytes(data)
         else:
-            self.size = (msg.width, msg.height)
             path = folder / (name + ".png")
             png(path, pixels_of(msg, conn.topic, index, role == "depth"))
         return (t, path.relative_to(self.out).as_posix(), conn.topic, index)
@@ -405,14 +405,13 @@ def main():
             if out.exists() and (not out.is_dir() or any(out.iterdir())):
                 raise BagError(f"--out {out}: exists and is not an empty folder: give a new one")
             staged = out.parent / f".{out.name}.partial"
-            if staged.exists():
-                subprocess.run(["rm", "-rf", str(staged)], check=True)
+            shutil.rmtree(staged, ignore_errors=True)  # a run interrupted before
             args.out = str(staged)
             conversion = Conversion(args)
             try:
                 rows, odometry = conversion.run(reader)
             except BaseException:
-                subprocess.run(["rm", "-rf", str(staged)], check=False)
+                shutil.rmtree(staged, ignore_errors=True)
                 raise
     except (AnyReaderError, ReaderError1, ReaderError2, EOFError, struct.error) as e:
         detail = " ".join(str(e).split())
@@ -428,7 +427,7 @@ def main():
     done = subprocess.run([convert_tool(), "generic", "--in", str(out), "--out", str(out / "sequence.rawlog"),
                            "--depth-factor", "1000"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if done.returncode != 0:
-        subprocess.run(["rm", "-rf", str(out)], check=False)
+        shutil.rmtree(out, ignore_errors=True)
         print(f"rvwo-bag: error: {done.stderr.strip() or 'rvwo-convert failed'} (nothing written)", file=sys.stderr)
         return 1
     print(f"rvwo-bag: {args.input}: {len(rows['left'])} frames, {len(odometry)} odometry readings -> "

@@ -239,8 +239,10 @@ void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
 std::optional<rvwo::apps::DatasetPreset> presetOf(ConvertArgs& args, const fs::path& in) {
   const std::string& kind = args.kind.getValue();
   if (args.preset.isSet()) return rvwo::apps::datasetPreset(kind, args.preset.getValue());
-  if (kind == "tum" && !rvwo::apps::tumPresetOfFolder(in).empty())
-    return rvwo::apps::datasetPreset(kind, rvwo::apps::tumPresetOfFolder(in));
+  if (kind == "tum") {
+    const std::string rig = rvwo::apps::tumPresetOfFolder(in);
+    if (!rig.empty()) return rvwo::apps::datasetPreset(kind, rig);
+  }
   if (kind == "openloris" && fs::exists(in / "sensors.yaml"))
     return rvwo::apps::openLorisCalibration(in, args.fisheye.getValue());
   return std::nullopt;

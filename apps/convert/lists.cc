@@ -29,6 +29,17 @@ bool number(const std::string& s, double* v) {
   return !s.empty() && *end == '\0' && std::isfinite(*v);
 }
 
+// Each line of `file` that holds fields (blank lines and '#' comments skipped), with its "file:line".
+template <typename Row>
+void forEachRow(const fs::path& file, std::ifstream& in, Row&& row) {
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    const auto f = splitFields(line);
+    if (f.empty() || f[0][0] == '#') continue;
+    row(file.string() + ":" + std::to_string(n), f);
+  }
+}
+
 // odometry.csv's columns: a header line naming them, each among these, in any order; without one
 // (or with a header of other names), t, x, y, theta.
 const std::vector<std::string> kOdometryColumns = {"t", "x", "y", "theta", "left_angle", "right_angle", "v", "omega"};
@@ -63,18 +74,14 @@ std::vector<Entry> readList(const fs::path& folder, const std::string& name, boo
     return {};
   }
   std::vector<Entry> out;
-  std::string line;
-  for (int n = 1; std::getline(in, line); ++n) {
-    const std::string where = file.string() + ":" + std::to_string(n);
-    const auto f = splitFields(line);
-    if (f.empty() || f[0][0] == '#') continue;
+  forEachRow(file, in, [&](const std::string& where, const std::vector<std::string>& f) {
     double t;
     if (f.size() < 2 || !number(f[0], &t)) fail(where, "expected 'timestamp path'");
     const fs::path p = folder / f[1];
     if (!fs::is_regular_file(p)) fail(where, "image '" + f[1] + "' not found");
     if (!out.empty() && !(t > out.back().t)) fail(where, "timestamps must increase");
     out.push_back({t, fs::absolute(p).string(), where});
-  }
+  });
   if (out.empty()) fail(file.string(), "no entries");
   return out;
 }
@@ -84,11 +91,7 @@ std::vector<Odometry> readOpenLorisOdometry(const fs::path& file) {
   std::ifstream in(file);
   if (!in) fail(file.string(), "not found");
   std::vector<Odometry> out;
-  std::string line;
-  for (int n = 1; std::getline(in, line); ++n) {
-    const std::string where = file.string() + ":" + std::to_string(n);
-    const auto f = splitFields(line);
-    if (f.empty() || f[0][0] == '#') continue;
+  forEachRow(file, in, [&](const std::string& where, const std::vector<std::string>& f) {
     double v[8];
     bool ok = f.size() >= 8;
     for (std::size_t i = 0; ok && i < 8; ++i) ok = number(f[i], &v[i]);
@@ -100,7 +103,7 @@ std::vector<Odometry> readOpenLorisOdometry(const fs::path& file) {
     o.theta = 2 * std::atan2(v[6], v[7]);  // yaw of a planar pose (qx, qy ~ 0)
     if (!out.empty() && !(o.t > out.back().t)) fail(where, "odometry timestamps must increase");
     out.push_back(o);
-  }
+  });
   if (out.empty()) fail(file.string(), "no odometry");
   return out;
 }
@@ -111,17 +114,15 @@ std::vector<Odometry> readOdometryCsv(const fs::path& file) {
   if (!in) fail(file.string(), "not found");
   std::vector<Odometry> out;
   std::vector<int> col = {0, 1, 2, 3};
-  bool header = false;
-  std::string line;
-  for (int n = 1; std::getline(in, line); ++n) {
-    const std::string where = file.string() + ":" + std::to_string(n);
-    const auto f = splitFields(line);
-    if (f.empty() || f[0][0] == '#') continue;
+  bool header = false, pose = true, angles = false, twist = false;
+  forEachRow(file, in, [&](const std::string& where, const std::vector<std::string>& f) {
     double v[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     if (!header && out.empty() && !number(f[0], &v[0])) {
       header = true;
       col = namedColumns(f, where);
-      continue;
+      const auto has = [&](int c) { return std::find(col.begin(), col.end(), c) != col.end(); };
+      pose = has(1), angles = has(4), twist = has(6);
+      return;
     }
     bool ok = f.size() >= col.size();
     for (std::size_t i = 0; ok && i < col.size(); ++i) ok = number(f[i], &v[col[i]]);
@@ -135,9 +136,9 @@ std::vector<Odometry> readOdometryCsv(const fs::path& file) {
     o.x = v[1];
     o.y = v[2];
     o.theta = v[3];
-    o.pose = std::find(col.begin(), col.end(), 1) != col.end();
-    o.angles = std::find(col.begin(), col.end(), 4) != col.end();
-    o.twist = std::find(col.begin(), col.end(), 6) != col.end();
+    o.pose = pose;
+    o.angles = angles;
+    o.twist = twist;
     if (o.angles) {
       const double k = kTicksPerRevolution / (2 * M_PI), l = std::round(v[4] * k), r = std::round(v[5] * k);
       if (std::fabs(l) > INT32_MAX || std::fabs(r) > INT32_MAX)
@@ -149,7 +150,7 @@ std::vector<Odometry> readOdometryCsv(const fs::path& file) {
     o.omega = v[7];
     if (!out.empty() && !(o.t > out.back().t)) fail(where, "odometry timestamps must increase");
     out.push_back(o);
-  }
+  });
   if (out.empty()) fail(file.string(), "no odometry");
   return out;
 }

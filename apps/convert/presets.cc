@@ -71,10 +71,6 @@ bool chain(const std::map<std::pair<std::string, std::string>, cv::Matx44d>& edg
   return false;
 }
 
-}  // namespace
-
-namespace {
-
 // One camera of sensors.yaml: fx, fy, cx, cy (stored fx, cx, fy, cy), size, rate, coefficients.
 struct LorisCamera {
   double fx, fy, cx, cy, fps;
@@ -232,10 +228,10 @@ DatasetPreset datasetPreset(const std::string& kind, const std::string& name) {
 }
 
 std::string tumPresetOfFolder(const std::filesystem::path& folder) {
+  std::filesystem::path dir = std::filesystem::absolute(folder).lexically_normal();
+  if (dir.filename().empty()) dir = dir.parent_path();  // "folder/"
+  const std::string name = dir.filename().string();
   std::smatch m;
-  const std::string name = std::filesystem::absolute(folder).lexically_normal().filename().string().empty()
-                               ? std::filesystem::absolute(folder).lexically_normal().parent_path().filename().string()
-                               : std::filesystem::absolute(folder).lexically_normal().filename().string();
   return std::regex_search(name, m, std::regex("freiburg([123])_")) ? "fr" + m[1].str() : "";
 }
 

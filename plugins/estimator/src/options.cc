@@ -7,6 +7,13 @@
 #include <stdexcept>
 
 namespace rvwo::estimator {
+namespace {
+
+cv::Mat cameraMatrix(const CameraModel& c) {
+  return cv::Mat_<double>({3, 3}, {c.fx(), 0, c.cx(), 0, c.fy(), c.cy(), 0, 0, 1});
+}
+
+}  // namespace
 
 void StereoRectification::rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat* left_out,
                                   cv::Mat* right_out) const {
@@ -27,8 +34,7 @@ cv::Mat StereoRectification::rectifyLeftDepth(const cv::Mat& depth) const {
 }
 
 void undistortPinhole(const std::array<double, 5>& d, Rig* rig) {
-  const CameraModel& c = *rig->camera;
-  const cv::Mat K = cv::Mat_<double>({3, 3}, {c.fx(), 0, c.cx(), 0, c.fy(), c.cy(), 0, 0, 1});
+  const cv::Mat K = cameraMatrix(*rig->camera);
   auto r = std::make_shared<StereoRectification>();
   cv::initUndistortRectifyMap(K, cv::Mat_<double>({5, 1}, {d[0], d[1], d[2], d[3], d[4]}), cv::Mat(), K,
                               cv::Size(rig->width, rig->height), CV_32FC1, r->left_x, r->left_y);
@@ -37,9 +43,6 @@ void undistortPinhole(const std::array<double, 5>& d, Rig* rig) {
 
 void rectifyFisheyeStereo(const KannalaBrandtCamera& left, const KannalaBrandtCamera& right,
                           const Eigen::Isometry3d& T_c1_c2, Rig* rig) {
-  auto K = [](const CameraModel& c) -> cv::Mat {
-    return cv::Mat_<double>({3, 3}, {c.fx(), 0, c.cx(), 0, c.fy(), c.cy(), 0, 0, 1});
-  };
   auto D = [](const KannalaBrandtCamera& c) -> cv::Mat {
     return cv::Mat_<double>({4, 1}, {c.k()(0), c.k()(1), c.k()(2), c.k()(3)});
   };
@@ -53,11 +56,13 @@ void rectifyFisheyeStereo(const KannalaBrandtCamera& left, const KannalaBrandtCa
   const cv::Size size(rig->width, rig->height);
   cv::Mat R1, R2, P1, P2, Q;
   // balance 0: the rectified view keeps only pixels both raw images have.
-  cv::fisheye::stereoRectify(K(left), D(left), K(right), D(right), size, R, T, R1, R2, P1, P2, Q,
+  cv::fisheye::stereoRectify(cameraMatrix(left), D(left), cameraMatrix(right), D(right), size, R, T, R1, R2, P1, P2, Q,
                              cv::CALIB_ZERO_DISPARITY, size, 0.0, 1.0);
   auto table = std::make_shared<StereoRectification>();
-  cv::fisheye::initUndistortRectifyMap(K(left), D(left), R1, P1, size, CV_32FC1, table->left_x, table->left_y);
-  cv::fisheye::initUndistortRectifyMap(K(right), D(right), R2, P2, size, CV_32FC1, table->right_x, table->right_y);
+  cv::fisheye::initUndistortRectifyMap(cameraMatrix(left), D(left), R1, P1, size, CV_32FC1, table->left_x,
+                                       table->left_y);
+  cv::fisheye::initUndistortRectifyMap(cameraMatrix(right), D(right), R2, P2, size, CV_32FC1, table->right_x,
+                                       table->right_y);
   const double fx = P1.at<double>(0, 0);
   rig->camera = std::make_shared<PinholeCamera>(fx, P1.at<double>(1, 1), P1.at<double>(0, 2), P1.at<double>(1, 2));
   rig->baseline = std::fabs(P2.at<double>(0, 3)) / fx;  // P2 = [K' | -K' (b, 0, 0)]
