@@ -28,6 +28,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 
+#include "sim/camera_effects.h"
 #include "sim/odometry.h"
 #include "sim/scenario.h"
 #include "sim/scene.h"
@@ -219,7 +220,7 @@ class SimApp {
     fs::remove_all(images_);
     fs::create_directories(images_);
     std::ofstream(dir_ / "scenario.yaml") << sc_.text;
-    std::unique_ptr<rvwo::CameraModel> cam;
+    std::unique_ptr<rvwo::CameraModel>& cam = camera_;
     if (sc_.lens == "fisheye") {
       cam = std::make_unique<rvwo::KannalaBrandtCamera>(rig_.fx, rig_.fy, rig_.cx, rig_.cy, rig_.k[0], rig_.k[1],
                                                         rig_.k[2], rig_.k[3]);
@@ -227,6 +228,7 @@ class SimApp {
       cam = std::make_unique<rvwo::PinholeCamera>(rig_.fx, rig_.fy, rig_.cx, rig_.cy);
     }
     rays_ = rvwo::sim::Scene::rayTable(*cam, rig_.width, rig_.height);
+    sensor_ = std::make_unique<rvwo::sim::ImageSensor>(sc_.camera_effects, rig_.width, rig_.height, 1.0 / sc_.fps);
     tcam_.ncols = rig_.width;
     tcam_.nrows = rig_.height;
     tcam_.setIntrinsicParamsFromValues(rig_.fx, rig_.fy, rig_.cx, rig_.cy);
@@ -286,12 +288,26 @@ class SimApp {
     rawlog->write(o);
   }
 
-  // One camera frame: rendered, its observation and its label image written, its images encoded.
-  void writeFrame(long index, double t, rvwo::apps::RawlogWriter* rawlog) {
-    Eigen::Isometry3d T_w_b;
-    const SE2 planar = bodyAt(t, &T_w_b);
-    const Eigen::Vector3d robot = planar.vector();
-    const Eigen::Isometry3d T_w_c = T_w_b * rig_.T_b_c;
+  // Where the (left) camera, or the camera T_c_other from it, is at any time of a frame's
+  // exposure, and the robot then.
+  rvwo::sim::View viewAt(double t, const Eigen::Isometry3d* T_c_other = nullptr) const {
+    rvwo::sim::View view;
+    view.t = t;
+    view.row_delay = sc_.camera_effects.row_delay;
+    view.T_w_c = [this, T_c_other](double s) {
+      Eigen::Isometry3d T_w_b;
+      bodyAt(s, &T_w_b);
+      return T_c_other ? T_w_b * rig_.T_b_c * *T_c_other : T_w_b * rig_.T_b_c;
+    };
+    view.robot = [this](double s) {
+      Eigen::Isometry3d T_w_b;
+      return bodyAt(s, &T_w_b).vector();
+    };
+    return view;
+  }
+
+  // The scene's light at t: blackout, low texture, illumination.
+  rvwo::sim::RenderOptions lightAt(double t) const {
     rvwo::sim::RenderOptions ro;
     ro.blackout = inAny(sc_.blackout, t);
     double contrast = 1;
@@ -299,22 +315,39 @@ class SimApp {
     for (const auto& i : sc_.illumination) {
       if (t >= i.t0) ro.gain = i.value;
     }
-    ro.noise_seed = seed_ * 1000003u + static_cast<unsigned>(index) * 2u;
-    ro.noise = sc_.pixel_noise;
+    return ro;
+  }
+
+  // One camera frame: each camera's view rendered and blurred over its exposure, the sensor's
+  // images made (the left's setting the next frame's gain), its observation and its label image
+  // written, its images encoded.
+  void writeFrame(long index, double t, rvwo::apps::RawlogWriter* rawlog) {
+    Eigen::Isometry3d T_w_b;
+    bodyAt(t, &T_w_b);
+    const Eigen::Isometry3d T_w_c = T_w_b * rig_.T_b_c;
+    const rvwo::sim::RenderOptions ro = lightAt(t);
+    const unsigned noise_seed = seed_ * 1000003u + static_cast<unsigned>(index) * 2u;
+    const double exposure = sc_.camera_effects.exposure;
     const auto t_render = std::chrono::steady_clock::now();
-    const rvwo::sim::Render left = scene_->render(T_w_c, rays_, t, ro, robot);
+    const rvwo::sim::View left_view = viewAt(t);
+    const rvwo::sim::Render left = scene_->render(left_view, rays_, ro);
+    const cv::Mat left_light = scene_->motionBlur(left, left_view, rays_, *camera_, exposure);
+    if (index == 0) sensor_->settle(left_light);
+    const cv::Mat left_image = sensor_->expose(left_light, noise_seed);
     std::vector<PendingImage> to_write;
     const std::string name = imageName("L", index);
-    to_write.push_back({left.image, (images_ / name).string()});
+    to_write.push_back({left_image, (images_ / name).string()});
     const mrpt::Clock::time_point stamp = mrpt::Clock::fromDouble(t);
     if (stereo_) {
-      ro.noise_seed += 1;
-      const rvwo::sim::Render right = scene_->render(T_w_c * rig_.T_c1_c2, rays_, t, ro, robot);
+      const rvwo::sim::View right_view = viewAt(t, &rig_.T_c1_c2);
+      const rvwo::sim::Render right = scene_->render(right_view, rays_, ro);
+      const cv::Mat right_light = scene_->motionBlur(right, right_view, rays_, *camera_, exposure);
       const std::string rname = imageName("R", index);
-      to_write.push_back({right.image, (images_ / rname).string()});
+      to_write.push_back({sensor_->expose(right_light, noise_seed + 1u), (images_ / rname).string()});
       rawlog->write(stereoObservation(stamp, name, rname));
     } else if (rgbd_) {
-      rawlog->write(rgbdObservation(stamp, name, left.depth));
+      const cv::Mat depth = rvwo::sim::degradeDepth(left, sc_.depth_effects, noise_seed * 2654435761ull + 17u);
+      rawlog->write(rgbdObservation(stamp, name, depth));
     } else {
       mrpt::obs::CObservationImage o;
       o.sensorLabel = "CAMERA";
@@ -323,6 +356,7 @@ class SimApp {
       o.cameraParams = tcam_;
       rawlog->write(o);
     }
+    sensor_->meter(left_image);  // the rig's cameras share the left one's exposure control
     // Ground-truth labels of the (left) image.
     const std::string lname = imageName("S", index);
     to_write.push_back({left.labels, (images_ / lname).string()});
@@ -337,6 +371,8 @@ class SimApp {
     encode_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_encode).count();
     gt_base_.push_back({t, T_w_b});
     gt_cam_.push_back({t, T_w_c});
+    gain_lo_ = std::min(gain_lo_, sensor_->gain());
+    gain_hi_ = std::max(gain_hi_, sensor_->gain());
     ++frames_written_;
   }
 
@@ -453,6 +489,9 @@ class SimApp {
     std::printf("rvwo-sim: per frame %.1f ms rendering, %.1f ms writing images, %.1f ms the rest\n",
                 1e3 * render_s_ / frames_written_, 1e3 * encode_s_ / frames_written_,
                 1e3 * (el - render_s_ - encode_s_) / frames_written_);
+    if (sc_.camera_effects.auto_exposure > 0) {
+      std::printf("rvwo-sim: auto-exposure gain %.2f to %.2f\n", gain_lo_, gain_hi_);
+    }
   }
 
   double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start_).count(); }
@@ -471,6 +510,9 @@ class SimApp {
   std::unique_ptr<rvwo::sim::Scene> scene_;
   SE2 T_room_path_;
   cv::Mat rays_;
+  std::unique_ptr<rvwo::CameraModel> camera_;
+  std::unique_ptr<rvwo::sim::ImageSensor> sensor_;
+  double gain_lo_ = 1e9, gain_hi_ = 0;  // the sensor's gain over the frames
   mrpt::img::TCamera tcam_;
   rvwo::apps::Trajectory gt_base_, gt_cam_;
   long n_odo_ = 0, frames_written_ = 0;

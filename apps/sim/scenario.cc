@@ -34,6 +34,42 @@ std::vector<Interval> intervals(const cv::FileNode& n, const std::string& key, c
   return out;
 }
 
+// A number under key into v, left as it is when the key is absent.
+void number(const cv::FileStorage& fs, const char* key, const std::string& path, double& v) {
+  const cv::FileNode n = fs[key];
+  if (n.empty() || n.isNone()) return;
+  if (!n.isReal() && !n.isInt()) throw std::runtime_error(path + ": " + key + ": expected a number");
+  v = static_cast<double>(n);
+}
+
+// Camera.* and Depth.*: the camera's and the depth sensor's effects.
+void readEffects(const cv::FileStorage& fs, const std::string& path, Scenario* s) {
+  auto num = [&](const char* key, double& v) { number(fs, key, path, v); };
+  CameraEffects& c = s->camera_effects;
+  num("Camera.Exposure", c.exposure);
+  num("Camera.RowDelay", c.row_delay);
+  num("Camera.Vignetting", c.vignetting);
+  num("Camera.AutoExposure", c.auto_exposure);
+  num("Camera.ExposureTarget", c.exposure_target);
+  num("Camera.MaxGain", c.max_gain);
+  num("Camera.ShotNoise", c.shot_noise);
+  double quality = c.jpeg_quality;
+  num("Camera.JpegQuality", quality);
+  c.jpeg_quality = static_cast<int>(quality);
+  DepthEffects& d = s->depth_effects;
+  num("Depth.Noise", d.noise);
+  num("Depth.MaxIncidence", d.max_incidence);
+  num("Depth.MinAlbedo", d.min_albedo);
+  const cv::FileNode shift = fs["Depth.Misregistration"];
+  if (!shift.empty() && !shift.isNone()) {
+    if (!shift.isSeq() || shift.size() != 2) {
+      throw std::runtime_error(path + ": Depth.Misregistration: expected [x, y] in pixels");
+    }
+    d.shift_x = static_cast<double>(shift[0]);
+    d.shift_y = static_cast<double>(shift[1]);
+  }
+}
+
 }  // namespace
 
 Scenario loadScenario(const std::string& path) {
@@ -49,12 +85,7 @@ Scenario loadScenario(const std::string& path) {
   } catch (const cv::Exception& e) {
     throw std::runtime_error(path + ": not a scenario YAML file (%YAML:1.0 first): " + e.err);
   }
-  auto num = [&](const char* key, double& v) {
-    const cv::FileNode n = fs[key];
-    if (n.empty() || n.isNone()) return;
-    if (!n.isReal() && !n.isInt()) throw std::runtime_error(path + ": " + key + ": expected a number");
-    v = static_cast<double>(n);
-  };
+  auto num = [&](const char* key, double& v) { number(fs, key, path, v); };
   auto integer = [&](const char* key, int& v) {
     double d = v;
     num(key, d);
@@ -71,7 +102,7 @@ Scenario loadScenario(const std::string& path) {
   str("Sequence.Camera", s.camera);
   str("Sequence.Lens", s.lens);
   num("Sequence.Fps", s.fps);
-  num("Sequence.PixelNoise", s.pixel_noise);
+  num("Sequence.PixelNoise", s.camera_effects.read_noise);
   str("Sequence.Motion", s.motion);
   str("Sequence.MotionFile", s.motion_file);
   integer("Sequence.MotionBlock", s.motion_block);
@@ -88,6 +119,7 @@ Scenario loadScenario(const std::string& path) {
   integer("Walkers.Count", s.walkers);
   integer("Walkers.Escorts", s.escorts);
   num("Walkers.Speed", s.walker_speed);
+  readEffects(fs, path, &s);
   s.slip = intervals(fs["Events.Slip"], "Events.Slip", path, 2, false);
   s.blackout = intervals(fs["Events.Blackout"], "Events.Blackout", path, 2, false);
   s.low_texture = intervals(fs["Events.LowTexture"], "Events.LowTexture", path, 3, false);
@@ -109,7 +141,22 @@ void validateScenario(const Scenario& s, const std::string& source) {
   check(s.lens == "pinhole" || s.lens == "fisheye", "Sequence.Lens", "pinhole or fisheye");
   check(s.lens == "pinhole" || s.camera != "rgbd", "Sequence.Lens", "fisheye is simulated for mono and stereo");
   check(s.fps > 0 && s.fps <= 120, "Sequence.Fps", "must be in (0, 120]");
-  check(s.pixel_noise >= 0 && s.pixel_noise <= 50, "Sequence.PixelNoise", "must be in [0, 50] grey levels");
+  const CameraEffects& c = s.camera_effects;
+  check(c.read_noise >= 0 && c.read_noise <= 50, "Sequence.PixelNoise", "must be in [0, 50] grey levels");
+  check(c.exposure >= 0 && c.exposure <= 1 / s.fps, "Camera.Exposure", "must be in [0, 1 / Sequence.Fps] s");
+  check(std::fabs(c.row_delay) <= 1e-3, "Camera.RowDelay", "must be in [-0.001, 0.001] s a row");
+  check(c.vignetting >= 0 && c.vignetting < 1, "Camera.Vignetting", "must be in [0, 1)");
+  check(c.auto_exposure >= 0, "Camera.AutoExposure", "must be >= 0 s (0: fixed gain)");
+  check(c.exposure_target > 0 && c.exposure_target < 255, "Camera.ExposureTarget", "must be in (0, 255) grey levels");
+  check(c.max_gain >= 1, "Camera.MaxGain", "must be >= 1");
+  check(c.shot_noise >= 0 && c.shot_noise <= 10, "Camera.ShotNoise", "must be in [0, 10] grey levels");
+  check(c.jpeg_quality >= 0 && c.jpeg_quality <= 100, "Camera.JpegQuality", "must be in [0, 100] (0: no JPEG)");
+  const DepthEffects& d = s.depth_effects;
+  check(d.noise >= 0, "Depth.Noise", "must be >= 0 (0: none)");
+  check(d.max_incidence > 0 && d.max_incidence <= 90, "Depth.MaxIncidence", "must be in (0, 90] degrees");
+  check(d.min_albedo >= 0 && d.min_albedo <= 255, "Depth.MinAlbedo", "must be in [0, 255] grey levels");
+  check(std::fabs(d.shift_x) <= 20 && std::fabs(d.shift_y) <= 20, "Depth.Misregistration",
+        "must be within 20 pixels each way");
   check(s.motion == "loop" || s.motion == "file", "Sequence.Motion", "loop or file");
   check(s.motion != "file" || !s.motion_file.empty(), "Sequence.MotionFile", "needed with Sequence.Motion: file");
   check(s.odometry_rate >= 1 && s.odometry_rate <= 1000, "Odometry.Rate", "must be in [1, 1000] Hz");

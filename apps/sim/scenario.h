@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "camera_effects.h"
 #include "rvwo/edges/se2.h"
 
 namespace rvwo::sim {
@@ -23,7 +24,6 @@ struct Scenario {
   std::string camera = "stereo";  // stereo | rgbd | mono
   std::string lens = "pinhole";   // pinhole | fisheye
   double fps = 30;
-  double pixel_noise = 1.0;     // grey levels (std), on every image
   std::string motion = "loop";  // loop | file
   std::string motion_file;      // TUM rows; OpenLORIS "seq:" blocks; TUM Pioneer (tilted plane fitted away)
   int motion_block = 1;
@@ -40,6 +40,8 @@ struct Scenario {
   double walker_speed = 1.0;                                 // m/s
   std::vector<Interval> slip, blackout, low_texture, bumps;  // bumps: value = height amplitude (m)
   std::vector<Interval> illumination;                        // value = gain from t0 on
+  CameraEffects camera_effects;                              // Camera.*, Sequence.PixelNoise
+  DepthEffects depth_effects;                                // Depth.* (RGB-D)
   std::string text;                                          // the file as read, written back beside the output
 };
 

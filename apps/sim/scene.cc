@@ -10,28 +10,21 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// Bilinear texture lookup at texel coordinates (x, y), clamped to the texture.
-inline double sample(const cv::Mat& tex, double x, double y) {
-  x = std::min(std::max(x - 0.5, 0.0), tex.cols - 1.001);
-  y = std::min(std::max(y - 0.5, 0.0), tex.rows - 1.001);
+// Bilinear lookup of a one-channel image at pixel coordinates (x, y), pixel centres on integers,
+// clamped to the image.
+template <typename T>
+inline double bilinear(const cv::Mat& m, double x, double y) {
+  x = std::min(std::max(x, 0.0), m.cols - 1.001);
+  y = std::min(std::max(y, 0.0), m.rows - 1.001);
   const int ix = static_cast<int>(x), iy = static_cast<int>(y);
   const double fx = x - ix, fy = y - iy;
-  const uint8_t* r0 = tex.ptr<uint8_t>(iy);
-  const uint8_t* r1 = tex.ptr<uint8_t>(iy + 1);
+  const T* r0 = m.ptr<T>(iy);
+  const T* r1 = m.ptr<T>(iy + 1);
   return (1 - fy) * ((1 - fx) * r0[ix] + fx * r0[ix + 1]) + fy * ((1 - fx) * r1[ix] + fx * r1[ix + 1]);
 }
 
-// Pixel noise from a counter-based hash (splitmix64) of (seed, pixel): the same bytes whatever
-// the thread count. One hash gives four 16-bit uniforms; their sum, scaled to unit variance, is
-// close to Gaussian (Irwin-Hall).
-inline float hashNoise(uint64_t seed, uint64_t pixel) {
-  uint64_t h = seed * 0x9E3779B97F4A7C15ull + pixel * 0xBF58476D1CE4E5B9ull + 0x9E3779B97F4A7C15ull;
-  h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
-  h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
-  h ^= h >> 31;
-  const float sum = static_cast<float>((h & 0xFFFF) + ((h >> 16) & 0xFFFF) + ((h >> 32) & 0xFFFF) + (h >> 48));
-  return (sum * (1.0f / 65536.0f) - 2.0f) * 1.7320508f;  // variance of the sum of four U(0,1): 1/3
-}
+// A texture at texel coordinates (x, y): texel centres at half-integers.
+inline double sample(const cv::Mat& tex, double x, double y) { return bilinear<uint8_t>(tex, x - 0.5, y - 0.5); }
 
 }  // namespace
 
@@ -153,32 +146,73 @@ cv::Mat Scene::rayTable(const CameraModel& camera, int width, int height) {
   return rays;
 }
 
-Render Scene::render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double t, const RenderOptions& opt,
+Eigen::Vector2d Scene::walkerAt(std::size_t i, double t, const Eigen::Vector3d& robot) const {
+  const Walker& w = walkers_[i];
+  return w.escort ? w.escortAt(t, robot.head<2>(), robot.z()) : w.at(t);
+}
+
+Render Scene::render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double t, const RenderOptions& o,
                      const Eigen::Vector3d& robot) const {
-  Render out;
-  out.image.create(rays.size(), CV_8U);
-  out.depth.create(rays.size(), CV_32F);
-  out.labels.create(rays.size(), CV_8U);
-  const Eigen::Matrix3d R = T_w_c.linear();
-  const Eigen::Vector3d o = T_w_c.translation(), zc = R.col(2);
+  View view;
+  view.T_w_c = [&T_w_c](double) { return T_w_c; };
+  view.robot = [&robot](double) { return robot; };
+  view.t = t;
+  return render(view, rays, o);
+}
+
+namespace {
+
+// What a row of pixels is cast from: the camera then, and the walkers present then.
+struct RowScene {
   struct Cyl {
     double x, y, r, h;
-    int tex;
+    int tex, index;
   };
+  Eigen::Matrix3d R;
+  Eigen::Vector3d o;
   std::vector<Cyl> cyls;
-  for (std::size_t i = 0; i < walkers_.size(); ++i) {
-    if (!walkers_[i].present(t)) continue;
-    const Walker& w = walkers_[i];
-    const Eigen::Vector2d c = w.escort ? w.escortAt(t, robot.head<2>(), robot.z()) : w.at(t);
-    cyls.push_back({c.x(), c.y(), walkers_[i].radius, walkers_[i].height, walker_texture_[i]});
-  }
+};
+
+}  // namespace
+
+Render Scene::render(const View& view, const cv::Mat& rays, const RenderOptions& opt) const {
+  Render out;
+  out.radiance.create(rays.size(), CV_64F);
+  out.depth.create(rays.size(), CV_32F);
+  out.labels.create(rays.size(), CV_8U);
+  out.walker.create(rays.size(), CV_8S);
+  out.albedo.create(rays.size(), CV_32F);
+  out.incidence.create(rays.size(), CV_32F);
+  auto sceneAt = [&](double t) {
+    RowScene rs;
+    const Eigen::Isometry3d T_w_c = view.T_w_c(t);
+    rs.R = T_w_c.linear();
+    rs.o = T_w_c.translation();
+    const Eigen::Vector3d robot = view.robot(t);
+    for (std::size_t i = 0; i < walkers_.size(); ++i) {
+      if (!walkers_[i].present(t)) continue;
+      const Eigen::Vector2d c = walkerAt(i, t, robot);
+      rs.cyls.push_back(
+          {c.x(), c.y(), walkers_[i].radius, walkers_[i].height, walker_texture_[i], static_cast<int>(i)});
+    }
+    return rs;
+  };
+  const RowScene global = sceneAt(view.t);  // every row's, under a global shutter
   const double lo[3] = {-sx_ / 2, -sy_ / 2, 0.0}, hi[3] = {sx_ / 2, sy_ / 2, h_};
   cv::parallel_for_(cv::Range(0, rays.rows), [&](const cv::Range& range) {
     for (int y = range.start; y < range.end; ++y) {
+      const RowScene rolling = view.row_delay != 0 ? sceneAt(view.rowTime(y, rays.rows)) : RowScene();
+      const RowScene& rs = view.row_delay != 0 ? rolling : global;
+      const Eigen::Matrix3d& R = rs.R;
+      const Eigen::Vector3d& o = rs.o;
+      const Eigen::Vector3d zc = R.col(2);
       const cv::Vec3f* ray = rays.ptr<cv::Vec3f>(y);
-      uint8_t* img = out.image.ptr<uint8_t>(y);
+      double* rad = out.radiance.ptr<double>(y);
       float* dep = out.depth.ptr<float>(y);
       uint8_t* lab = out.labels.ptr<uint8_t>(y);
+      int8_t* who = out.walker.ptr<int8_t>(y);
+      float* alb = out.albedo.ptr<float>(y);
+      float* inc = out.incidence.ptr<float>(y);
       for (int x = 0; x < rays.cols; ++x) {
         const Eigen::Vector3d d = R * Eigen::Vector3d(ray[x][0], ray[x][1], ray[x][2]);
         double best = kInf;
@@ -216,8 +250,8 @@ Render Scene::render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double
           if (!miss && face >= 0 && b.face[face] >= 0 && t0 < best) best = t0, surface = b.face[face];
         }
         // Walkers: vertical cylinders.
-        for (std::size_t i = 0; i < cyls.size(); ++i) {
-          const Cyl& c = cyls[i];
+        for (std::size_t i = 0; i < rs.cyls.size(); ++i) {
+          const RowScene::Cyl& c = rs.cyls[i];
           const double px = o.x() - c.x, py = o.y() - c.y;
           const double A = d.x() * d.x() + d.y() * d.y(), B = px * d.x() + py * d.y(),
                        C = px * px + py * py - c.r * c.r;
@@ -227,25 +261,79 @@ Render Scene::render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double
           const double z = o.z() + tt * d.z();
           if (tt > 0 && tt < best && z >= 0 && z <= c.h) best = tt, walker = static_cast<int>(i), surface = -1;
         }
-        double value = 0;
+        double value = 0, cosine = 1;
+        who[x] = -1;
+        lab[x] = 0;
         if (walker >= 0) {
-          const Cyl& c = cyls[walker];
+          const RowScene::Cyl& c = rs.cyls[walker];
           const Eigen::Vector3d p = o + best * d;
           const double ang = std::atan2(p.y() - c.y, p.x() - c.x) + M_PI;
           const cv::Mat& tex = textures_[c.tex];
           value = sample(tex, ang * c.r * 100, (c.h - p.z()) * 100);
           lab[x] = static_cast<uint8_t>(opt.walker_label);
+          who[x] = static_cast<int8_t>(c.index);
+          cosine = std::fabs(d.x() * (p.x() - c.x) + d.y() * (p.y() - c.y)) / c.r;
         } else if (surface >= 0) {
           const Surface& s = surfaces_[surface];
           const Eigen::Vector3d p = o + best * d - s.origin;
           value = sample(textures_[s.texture], p.dot(s.u) * s.texels_per_m, p.dot(s.v) * s.texels_per_m);
-          lab[x] = 0;
+          cosine = std::fabs(d.dot(s.normal));
         }
         dep[x] = std::isfinite(best) ? static_cast<float>(best * d.dot(zc)) : 0.0f;
+        alb[x] = static_cast<float>(value);
+        inc[x] = static_cast<float>(cosine);
         if (opt.blackout) value = 8;
-        value = (128 + opt.contrast * (value - 128)) * opt.gain +
-                opt.noise * hashNoise(opt.noise_seed, static_cast<uint64_t>(y) * rays.cols + x);
-        img[x] = cv::saturate_cast<uint8_t>(value);
+        rad[x] = (128 + opt.contrast * (value - 128)) * opt.gain;
+      }
+    }
+  });
+  return out;
+}
+
+cv::Mat Scene::motionBlur(const Render& r, const View& view, const cv::Mat& rays, const CameraModel& camera,
+                          double exposure) const {
+  cv::Mat out = r.radiance.clone();
+  if (exposure <= 0) return out;
+  const int max_samples = 64;
+  cv::parallel_for_(cv::Range(0, rays.rows), [&](const cv::Range& range) {
+    for (int y = range.start; y < range.end; ++y) {
+      // The row's camera at its time and at the shutter's opening and closing; how far each
+      // walker moves in the camera's frame between them.
+      const double t = view.rowTime(y, rays.rows), ta = t - 0.5 * exposure, tb = t + 0.5 * exposure;
+      const Eigen::Isometry3d T_w_c = view.T_w_c(t), T_w_a = view.T_w_c(ta), T_w_b = view.T_w_c(tb);
+      const Eigen::Isometry3d T_a_c = T_w_a.inverse() * T_w_c, T_b_c = T_w_b.inverse() * T_w_c;
+      const Eigen::Vector3d robot = view.robot(t), robot_a = view.robot(ta), robot_b = view.robot(tb);
+      std::vector<Eigen::Vector3d> moved_a(walkers_.size()), moved_b(walkers_.size());
+      for (std::size_t i = 0; i < walkers_.size(); ++i) {
+        const Eigen::Vector2d w = walkerAt(i, t, robot);
+        const Eigen::Vector2d da = walkerAt(i, ta, robot_a) - w, db = walkerAt(i, tb, robot_b) - w;
+        moved_a[i] = T_w_a.linear().transpose() * Eigen::Vector3d(da.x(), da.y(), 0);
+        moved_b[i] = T_w_b.linear().transpose() * Eigen::Vector3d(db.x(), db.y(), 0);
+      }
+      const cv::Vec3f* ray = rays.ptr<cv::Vec3f>(y);
+      const float* dep = r.depth.ptr<float>(y);
+      const int8_t* who = r.walker.ptr<int8_t>(y);
+      double* dst = out.ptr<double>(y);
+      for (int x = 0; x < rays.cols; ++x) {
+        if (dep[x] <= 0 || ray[x][2] < 0.05f) continue;
+        const Eigen::Vector3d P_c = Eigen::Vector3d(ray[x][0], ray[x][1], ray[x][2]) * (dep[x] / ray[x][2]);
+        Eigen::Vector3d P_a = T_a_c * P_c, P_b = T_b_c * P_c;
+        if (who[x] >= 0) {  // the walker's point moves with it
+          P_a += moved_a[who[x]];
+          P_b += moved_b[who[x]];
+        }
+        if (P_a.z() <= 0.05 || P_b.z() <= 0.05) continue;
+        const Eigen::Vector2d a = camera.project(P_a), b = camera.project(P_b);
+        // A sample a pixel along the path's longer axis; a path under half a pixel leaves the pixel
+        // as it is.
+        const Eigen::Vector2d ab = b - a;
+        const int n = std::min(max_samples, 1 + static_cast<int>(std::max(std::fabs(ab.x()), std::fabs(ab.y())) + 0.5));
+        if (n <= 1) continue;
+        const Eigen::Vector2d step = ab / n;
+        Eigen::Vector2d p = a + 0.5 * step;
+        double sum = 0;
+        for (int i = 0; i < n; ++i, p += step) sum += bilinear<double>(r.radiance, p.x(), p.y());
+        dst[x] = sum / n;
       }
     }
   });

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <random>
 #include <vector>
@@ -40,20 +41,32 @@ struct Surface {
   int texture;  // index into Scene::textures
 };
 
-// What a ray sees.
+// What a ray sees: the light reaching each pixel; the camera (camera_effects.h) makes the image.
 struct Render {
-  cv::Mat image;   // CV_8U grey
-  cv::Mat depth;   // CV_32F, z in the camera frame (m); 0 where nothing is hit
-  cv::Mat labels;  // CV_8U: 0 background, walker_label where a walker is seen
+  cv::Mat radiance;   // CV_64F, grey levels at unit exposure: texture, contrast, illumination, blackout
+  cv::Mat depth;      // CV_32F, z in the camera frame (m); 0 where nothing is hit
+  cv::Mat labels;     // CV_8U: 0 background, walker_label where a walker is seen
+  cv::Mat walker;     // CV_8S: index into the walkers present (Scene::walkerAt), -1 elsewhere
+  cv::Mat albedo;     // CV_32F, the surface's own shade (0-255), before light and contrast
+  cv::Mat incidence;  // CV_32F, cosine of the angle between the ray and the surface's normal
 };
 
 struct RenderOptions {
   double gain = 1.0;      // illumination: multiplies the radiance
   double contrast = 1.0;  // low texture: 1 full, 0 flat grey
-  bool blackout = false;  // lens covered: a dark, noisy image
+  bool blackout = false;  // lens covered: a dark image
   int walker_label = 15;  // class id of walkers in the label image (VOC-21 person)
-  double noise = 1.0;     // pixel noise std, grey levels
-  unsigned noise_seed = 0;
+};
+
+// Where a camera is over a frame's exposure: its pose and the robot's planar pose (x, y, heading;
+// escorts walk around it) as functions of time. Row y is read at rowTime(y): the frame's time at
+// the middle row, row_delay seconds a row apart (a rolling shutter; 0 for a global one).
+struct View {
+  std::function<Eigen::Isometry3d(double)> T_w_c;
+  std::function<Eigen::Vector3d(double)> robot;
+  double t = 0;
+  double row_delay = 0;
+  double rowTime(int y, int rows) const { return t + (y - 0.5 * (rows - 1)) * row_delay; }
 };
 
 class Scene {
@@ -73,10 +86,18 @@ class Scene {
 
   // Rays in the camera frame for every pixel of a camera (unit vectors), computed once.
   static cv::Mat rayTable(const CameraModel& camera, int width, int height);
-  // Renders the view of a camera at T_w_c at time t; rays from rayTable. robot: the robot's
-  // planar pose then (escorts walk around it).
+  // Renders what a camera sees over a view (each row at its time); rays from rayTable.
+  Render render(const View& view, const cv::Mat& rays, const RenderOptions& o) const;
+  // The same from a camera standing at T_w_c at time t, the robot at robot.
   Render render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double t, const RenderOptions& o,
                 const Eigen::Vector3d& robot = Eigen::Vector3d::Zero()) const;
+  // Where walker i is at t (on the floor), the robot then at robot (escorts walk around it).
+  Eigen::Vector2d walkerAt(std::size_t i, double t, const Eigen::Vector3d& robot) const;
+  // Motion blur: each pixel's radiance averaged along the path its point (the room's, or a
+  // walker's as it walks) takes across the image while the shutter is open, exposure seconds
+  // around the row's time; camera: the one rays came from.
+  cv::Mat motionBlur(const Render& r, const View& view, const cv::Mat& rays, const CameraModel& camera,
+                     double exposure) const;
 
  private:
   void addBox(double cx, double cy, double w, double d, double h, std::mt19937_64& rng);

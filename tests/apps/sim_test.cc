@@ -30,8 +30,7 @@ TEST(Simulator, LandmarksProjectOntoRenderedCorners) {
   const Scene scene(10, 8, 2.6, 3, 6);
   const PinholeCamera cam(400, 400, 319.5, 239.5);
   const cv::Mat rays = Scene::rayTable(cam, 640, 480);
-  RenderOptions o;
-  o.noise = 0;
+  const RenderOptions o;
   int checked = 0;
   double worst = 0;
   std::vector<double> dists;
@@ -44,8 +43,9 @@ TEST(Simulator, LandmarksProjectOntoRenderedCorners) {
     T_w_c.linear() = R_w_c;
     T_w_c.translation() << 0.3, -0.2, 1.2;
     const Render r = scene.render(T_w_c, rays, 0.0, o);
-    cv::Mat img;
-    r.image.convertTo(img, CV_32F);
+    cv::Mat grey, img;  // a perfect camera's image: the light quantised, no noise
+    r.radiance.convertTo(grey, CV_8U);
+    grey.convertTo(img, CV_32F);
     std::vector<Eigen::Vector2d> all;  // every landmark in front of the camera, projected
     for (const Eigen::Vector3d& L : scene.landmarks()) {
       const Eigen::Vector3d P = T_w_c.inverse() * L;
@@ -75,15 +75,15 @@ TEST(Simulator, LandmarksProjectOntoRenderedCorners) {
       // the other (>= 40 apart), and the window holds nothing but those two shades beyond the
       // blurred edges (no neighbouring rectangle or room edge to pull the refinement away).
       const int cx = cvRound(uv.x()), cy = cvRound(uv.y());
-      int probe[4] = {r.image.at<uint8_t>(cy - 4, cx - 4), r.image.at<uint8_t>(cy - 4, cx + 4),
-                      r.image.at<uint8_t>(cy + 4, cx - 4), r.image.at<uint8_t>(cy + 4, cx + 4)};
+      int probe[4] = {grey.at<uint8_t>(cy - 4, cx - 4), grey.at<uint8_t>(cy - 4, cx + 4),
+                      grey.at<uint8_t>(cy + 4, cx - 4), grey.at<uint8_t>(cy + 4, cx + 4)};
       std::sort(probe, probe + 4);
       const bool three_low = probe[2] - probe[0] <= 6 && probe[3] - probe[2] >= 40;
       const bool three_high = probe[3] - probe[1] <= 6 && probe[1] - probe[0] >= 40;
       if (!three_low && !three_high) continue;
       const int lo = probe[0], hi = probe[3];
       int other = 0;
-      const cv::Mat win = r.image(cv::Rect(cx - 5, cy - 5, 11, 11));
+      const cv::Mat win = grey(cv::Rect(cx - 5, cy - 5, 11, 11));
       for (int yy = 0; yy < win.rows; ++yy) {
         for (int xx = 0; xx < win.cols; ++xx) {
           const int g = win.at<uint8_t>(yy, xx);
@@ -102,7 +102,7 @@ TEST(Simulator, LandmarksProjectOntoRenderedCorners) {
       if (d > 0.5 && std::getenv("RVWO_DEBUG_CORNERS")) {
         std::cout << "outlier view " << view << " uv " << uv.transpose() << " z " << P.z() << " refined " << c[0]
                   << " n " << scene.landmarkNormals()[i].transpose() << "\n"
-                  << r.image(cv::Rect(cvRound(uv.x()) - 4, cvRound(uv.y()) - 4, 9, 9)) << "\n";
+                  << grey(cv::Rect(cvRound(uv.x()) - 4, cvRound(uv.y()) - 4, 9, 9)) << "\n";
       }
     }
   }
@@ -221,6 +221,12 @@ TEST(Simulator, ScenarioErrorsNameFileAndKey) {
   expectError("Events.Slip: [3.0, 2.0]\n", "Events.Slip: an interval ends before it starts");
   expectError("Events.Bumps: [1.0, 2.0]\n", "Events.Bumps: expected groups of 3");
   expectError("Sequence.Motion: \"file\"\n", "Sequence.MotionFile: needed");
+  expectError("Camera.Exposure: 0.05\n", "Camera.Exposure: must be in [0, 1 / Sequence.Fps] s");
+  expectError("Camera.Vignetting: 1.0\n", "Camera.Vignetting: must be in [0, 1)");
+  expectError("Camera.JpegQuality: 101\n", "Camera.JpegQuality: must be in [0, 100]");
+  expectError("Camera.ShotNoise: \"some\"\n", "Camera.ShotNoise: expected a number");
+  expectError("Depth.Misregistration: [1.0]\n", "Depth.Misregistration: expected [x, y] in pixels");
+  expectError("Depth.MaxIncidence: 0\n", "Depth.MaxIncidence: must be in (0, 90] degrees");
   Scenario fisheye = scenarioFrom("Sequence.Camera: \"mono\"\nSequence.Lens: \"fisheye\"\n", "fisheye");
   fisheye.camera = "rgbd";  // as rvwo-sim --camera rgbd would (fisheye is mono and stereo only)
   EXPECT_THROW(validateScenario(fisheye, "overrides"), std::runtime_error);
