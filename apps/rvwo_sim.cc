@@ -30,6 +30,7 @@
 
 #include "sim/camera_effects.h"
 #include "sim/odometry.h"
+#include "sim/people.h"
 #include "sim/scenario.h"
 #include "sim/scene.h"
 #include "support/command_line.h"
@@ -201,6 +202,7 @@ class SimApp {
       w.b = insideRoom(c + half * dir);
       w.speed = sc_.walker_speed * (0.7 + 0.6 * u(rng));
       w.phase = 10 * u(rng);
+      w.look = lookOf(i);
       scene_->addWalker(w);
     }
     for (int i = 0; i < sc_.escorts; ++i) {
@@ -210,8 +212,16 @@ class SimApp {
       w.sweep = 1.0 + 1.0 * u(rng);
       w.period = 6 + 6 * u(rng);
       w.phase = 2 * M_PI * u(rng);
+      w.look = lookOf(sc_.walkers + i);
       scene_->addWalker(w);
     }
+  }
+
+  // Walker i's look: the people in turn from one the seed picks (no random draw, so that the
+  // walkers' paths are those of the cylinders), or a cylinder.
+  int lookOf(int i) const {
+    return sc_.walker_look == "people" ? static_cast<int>((seed_ + static_cast<unsigned>(i)) % rvwo::sim::peopleLooks())
+                                       : -1;
   }
 
   // The output folder, its images folder emptied, the scenario as run; the camera's ray table.

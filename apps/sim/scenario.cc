@@ -119,6 +119,7 @@ Scenario loadScenario(const std::string& path) {
   integer("Walkers.Count", s.walkers);
   integer("Walkers.Escorts", s.escorts);
   num("Walkers.Speed", s.walker_speed);
+  str("Walkers.Look", s.walker_look);
   readEffects(fs, path, &s);
   s.slip = intervals(fs["Events.Slip"], "Events.Slip", path, 2, false);
   s.blackout = intervals(fs["Events.Blackout"], "Events.Blackout", path, 2, false);
@@ -163,6 +164,7 @@ void validateScenario(const Scenario& s, const std::string& source) {
   check(s.ticks_per_revolution > 0, "Odometry.TicksPerRevolution", "must be > 0");
   check(s.walkers >= 0 && s.walkers <= 50, "Walkers.Count", "must be in [0, 50]");
   check(s.escorts >= 0 && s.escorts <= 10, "Walkers.Escorts", "must be in [0, 10]");
+  check(s.walker_look == "people" || s.walker_look == "cylinders", "Walkers.Look", "people or cylinders");
 }
 
 Motion::Motion(const Scenario& s) {

@@ -38,6 +38,7 @@ struct Scenario {
   int walkers = 0;                                           // crossing the room
   int escorts = 0;                                           // walking around the robot, in and out of its view
   double walker_speed = 1.0;                                 // m/s
+  std::string walker_look = "people";                        // people (real, cut from photographs) | cylinders
   std::vector<Interval> slip, blackout, low_texture, bumps;  // bumps: value = height amplitude (m)
   std::vector<Interval> illumination;                        // value = gain from t0 on
   CameraEffects camera_effects;                              // Camera.*, Sequence.PixelNoise

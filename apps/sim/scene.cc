@@ -5,6 +5,8 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "people.h"
+
 namespace rvwo::sim {
 namespace {
 
@@ -166,14 +168,86 @@ namespace {
 struct RowScene {
   struct Cyl {
     double x, y, r, h;
-    int tex, index;
+    int tex, index, look;
   };
   Eigen::Matrix3d R;
   Eigen::Vector3d o;
   std::vector<Cyl> cyls;
 };
 
+// Where a ray meets a person: its distance (0: no person), their shade and the incidence.
+struct PersonHit {
+  double t = 0, value = 0, cosine = 1;
+};
+
+// A ray from o along d against the person `look` standing at (x, y), `height` / 1.75 times their
+// photographed size, upright and facing the ray's origin: a hit nearer than `nearest` on an opaque
+// pixel of theirs.
+bool hitPerson(double x, double y, double height, int look, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+               double nearest, PersonHit* hit) {
+  const Person& p = people()[look / 2];
+  const Eigen::Vector2d towards(o.x() - x, o.y() - y);
+  const double dist = towards.norm();
+  if (dist < 1e-6) return false;
+  const Eigen::Vector3d n(towards.x() / dist, towards.y() / dist, 0);  // the picture's normal, at the camera
+  const double dn = d.dot(n);
+  if (dn > -1e-9) return false;
+  const double t = (Eigen::Vector3d(x, y, 0) - o).dot(n) / dn;
+  if (t <= 0 || t >= nearest) return false;
+  const Eigen::Vector3d q = o + t * d - Eigen::Vector3d(x, y, 0);
+  const double tall = p.metres * height / 1.75, wide = tall * p.grey.cols / p.grey.rows;
+  const Eigen::Vector3d right(-n.y(), n.x(), 0);  // the viewer's right, looking along -n
+  double u = (q.dot(right) / wide + 0.5) * p.grey.cols;
+  const double v = (1 - q.z() / tall) * p.grey.rows;
+  if (u < 0 || u >= p.grey.cols || v < 0 || v >= p.grey.rows) return false;
+  if (look % 2) u = p.grey.cols - u;  // mirrored
+  const int iu = std::min(static_cast<int>(u), p.grey.cols - 1), iv = std::min(static_cast<int>(v), p.grey.rows - 1);
+  if (p.alpha.at<uint8_t>(iv, iu) < 128) return false;
+  hit->t = t;
+  hit->value = bilinear<uint8_t>(p.grey, u - 0.5, v - 0.5);
+  hit->cosine = -dn;
+  return true;
+}
+
 }  // namespace
+
+void Scene::hitStatic(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double* best_out, int* surface) const {
+  double best = *best_out;
+  // Room: the ray leaves the box [lo, hi] through one face.
+  const double lo[3] = {-sx_ / 2, -sy_ / 2, 0.0}, hi[3] = {sx_ / 2, sy_ / 2, h_};
+  // 1/d once per ray: the slab tests below multiply instead of dividing.
+  const double inv[3] = {std::fabs(d[0]) > 1e-12 ? 1.0 / d[0] : 0.0, std::fabs(d[1]) > 1e-12 ? 1.0 / d[1] : 0.0,
+                         std::fabs(d[2]) > 1e-12 ? 1.0 / d[2] : 0.0};
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] > 1e-12) {
+      const double tt = (hi[a] - o[a]) * inv[a];
+      if (tt < best) best = tt, *surface = room_face_[2 * a + 1];
+    } else if (d[a] < -1e-12) {
+      const double tt = (lo[a] - o[a]) * inv[a];
+      if (tt < best) best = tt, *surface = room_face_[2 * a];
+    }
+  }
+  // Furniture: slab entry.
+  for (const Box& b : boxes_) {
+    double t0 = 0, t1 = best;
+    int face = -1;
+    bool miss = false;
+    for (int a = 0; a < 3 && !miss; ++a) {
+      if (std::fabs(d[a]) < 1e-12) {
+        miss = o[a] < b.lo[a] || o[a] > b.hi[a];
+        continue;
+      }
+      double ta = (b.lo[a] - o[a]) * inv[a], tb = (b.hi[a] - o[a]) * inv[a];
+      int fa = 2 * a, fb = 2 * a + 1;
+      if (ta > tb) std::swap(ta, tb), std::swap(fa, fb);
+      if (ta > t0) t0 = ta, face = fa;
+      t1 = std::min(t1, tb);
+      miss = t0 > t1;
+    }
+    if (!miss && face >= 0 && b.face[face] >= 0 && t0 < best) best = t0, *surface = b.face[face];
+  }
+  *best_out = best;
+}
 
 Render Scene::render(const View& view, const cv::Mat& rays, const RenderOptions& opt) const {
   Render out;
@@ -192,13 +266,12 @@ Render Scene::render(const View& view, const cv::Mat& rays, const RenderOptions&
     for (std::size_t i = 0; i < walkers_.size(); ++i) {
       if (!walkers_[i].present(t)) continue;
       const Eigen::Vector2d c = walkerAt(i, t, robot);
-      rs.cyls.push_back(
-          {c.x(), c.y(), walkers_[i].radius, walkers_[i].height, walker_texture_[i], static_cast<int>(i)});
+      const Walker& w = walkers_[i];
+      rs.cyls.push_back({c.x(), c.y(), w.radius, w.height, walker_texture_[i], static_cast<int>(i), w.look});
     }
     return rs;
   };
   const RowScene global = sceneAt(view.t);  // every row's, under a global shutter
-  const double lo[3] = {-sx_ / 2, -sy_ / 2, 0.0}, hi[3] = {sx_ / 2, sy_ / 2, h_};
   cv::parallel_for_(cv::Range(0, rays.rows), [&](const cv::Range& range) {
     for (int y = range.start; y < range.end; ++y) {
       const RowScene rolling = view.row_delay != 0 ? sceneAt(view.rowTime(y, rays.rows)) : RowScene();
@@ -217,41 +290,18 @@ Render Scene::render(const View& view, const cv::Mat& rays, const RenderOptions&
         const Eigen::Vector3d d = R * Eigen::Vector3d(ray[x][0], ray[x][1], ray[x][2]);
         double best = kInf;
         int surface = -1, walker = -1;
-        // Room: the ray leaves the box [lo, hi] through one face.
-        // 1/d once per ray: the slab tests below multiply instead of dividing.
-        const double inv[3] = {std::fabs(d[0]) > 1e-12 ? 1.0 / d[0] : 0.0, std::fabs(d[1]) > 1e-12 ? 1.0 / d[1] : 0.0,
-                               std::fabs(d[2]) > 1e-12 ? 1.0 / d[2] : 0.0};
-        for (int a = 0; a < 3; ++a) {
-          if (d[a] > 1e-12) {
-            const double tt = (hi[a] - o[a]) * inv[a];
-            if (tt < best) best = tt, surface = room_face_[2 * a + 1];
-          } else if (d[a] < -1e-12) {
-            const double tt = (lo[a] - o[a]) * inv[a];
-            if (tt < best) best = tt, surface = room_face_[2 * a];
-          }
-        }
-        // Furniture: slab entry.
-        for (const Box& b : boxes_) {
-          double t0 = 0, t1 = best;
-          int face = -1;
-          bool miss = false;
-          for (int a = 0; a < 3 && !miss; ++a) {
-            if (std::fabs(d[a]) < 1e-12) {
-              miss = o[a] < b.lo[a] || o[a] > b.hi[a];
-              continue;
-            }
-            double ta = (b.lo[a] - o[a]) * inv[a], tb = (b.hi[a] - o[a]) * inv[a];
-            int fa = 2 * a, fb = 2 * a + 1;
-            if (ta > tb) std::swap(ta, tb), std::swap(fa, fb);
-            if (ta > t0) t0 = ta, face = fa;
-            t1 = std::min(t1, tb);
-            miss = t0 > t1;
-          }
-          if (!miss && face >= 0 && b.face[face] >= 0 && t0 < best) best = t0, surface = b.face[face];
-        }
-        // Walkers: vertical cylinders.
+        hitStatic(o, d, &best, &surface);
+        // Walkers: vertical cylinders, or people standing on the floor facing the camera.
+        PersonHit person;
         for (std::size_t i = 0; i < rs.cyls.size(); ++i) {
           const RowScene::Cyl& c = rs.cyls[i];
+          if (c.look >= 0) {
+            PersonHit hit;
+            if (hitPerson(c.x, c.y, c.h, c.look, o, d, best, &hit)) {
+              best = hit.t, walker = static_cast<int>(i), surface = -1, person = hit;
+            }
+            continue;
+          }
           const double px = o.x() - c.x, py = o.y() - c.y;
           const double A = d.x() * d.x() + d.y() * d.y(), B = px * d.x() + py * d.y(),
                        C = px * px + py * py - c.r * c.r;
@@ -259,12 +309,19 @@ Render Scene::render(const View& view, const cv::Mat& rays, const RenderOptions&
           if (A < 1e-12 || disc < 0) continue;
           const double tt = (-B - std::sqrt(disc)) / A;
           const double z = o.z() + tt * d.z();
-          if (tt > 0 && tt < best && z >= 0 && z <= c.h) best = tt, walker = static_cast<int>(i), surface = -1;
+          if (tt > 0 && tt < best && z >= 0 && z <= c.h) {
+            best = tt, walker = static_cast<int>(i), surface = -1, person = PersonHit();
+          }
         }
         double value = 0, cosine = 1;
         who[x] = -1;
         lab[x] = 0;
-        if (walker >= 0) {
+        if (walker >= 0 && person.t > 0) {
+          value = person.value;
+          cosine = person.cosine;
+          lab[x] = static_cast<uint8_t>(opt.walker_label);
+          who[x] = static_cast<int8_t>(rs.cyls[walker].index);
+        } else if (walker >= 0) {
           const RowScene::Cyl& c = rs.cyls[walker];
           const Eigen::Vector3d p = o + best * d;
           const double ang = std::atan2(p.y() - c.y, p.x() - c.x) + M_PI;

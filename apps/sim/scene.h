@@ -1,8 +1,9 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 //
 // The simulator's world: a room (floor, ceiling, four walls) with furniture boxes, every surface
-// textured with corner-rich patterns generated from a seed, and walkers: people-sized textured
-// cylinders that move along segments. Rendered by casting one ray per pixel.
+// textured with corner-rich patterns generated from a seed, and walkers that move along segments:
+// real people cut from photographs, or people-sized textured cylinders. Rendered by casting one
+// ray per pixel.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -19,6 +20,9 @@ struct Walker {
   Eigen::Vector2d a, b;  // walks a -> b -> a ... at speed (m/s), from t_on to t_off (s)
   double speed = 1.0, phase = 0.0, t_on = 0.0, t_off = 1e18;
   double radius = 0.25, height = 1.75;
+  // How the walker looks: -1 a textured cylinder; k >= 0 a real person (people.h), drawn upright
+  // on the floor facing the camera, person k / 2, mirrored when k is odd, scaled by height / 1.75.
+  int look = -1;
   // An escort walks around the robot instead: ahead of it by `ahead` m, sweeping across its view
   // by +-`sweep` m with the given period (s). Its position then comes from escortAt().
   bool escort = false;
@@ -100,6 +104,9 @@ class Scene {
                      double exposure) const;
 
  private:
+  // The nearest wall, floor, ceiling or furniture face a ray from o along d meets before *best:
+  // *best and *surface updated.
+  void hitStatic(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double* best, int* surface) const;
   void addBox(double cx, double cy, double w, double d, double h, std::mt19937_64& rng);
   int makeTexture(int w, int h, std::mt19937_64& rng, bool clothes);
   void addSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Eigen::Vector3d& v, double w, double h,

@@ -60,16 +60,16 @@ struct Outcome {
   std::size_t poses = 0;
 };
 
-// Replays dir's sequence (with its settings, or another file in dir) with the given switches; ATE
-// (se3) against its ground truth.
+// Replays dir's sequence (with its settings, or another file in dir) with the given switches, in
+// one thread unless threaded; ATE (se3) against its ground truth.
 inline Outcome replay(const fs::path& dir, const std::string& args, const std::string& name,
-                      const std::string& settings = "settings.yaml") {
+                      const std::string& settings = "settings.yaml", bool threaded = false) {
   Outcome r;
   const fs::path traj = dir / (name + ".txt"), out = dir / (name + ".stdout"), err = dir / (name + ".stderr");
-  const std::string cmd = std::string(RVWO_REPLAY) + " --quiet --deterministic --settings " +
-                          (dir / settings).string() + " --rawlog " + (dir / "sequence.rawlog").string() + " --out " +
-                          traj.string() + " --gt " + (dir / "groundtruth.txt").string() + " " + args + " > " +
-                          out.string() + " 2> " + err.string();
+  const std::string cmd =
+      std::string(RVWO_REPLAY) + (threaded ? " --quiet" : " --quiet --deterministic") + " --settings " +
+      (dir / settings).string() + " --rawlog " + (dir / "sequence.rawlog").string() + " --out " + traj.string() +
+      " --gt " + (dir / "groundtruth.txt").string() + " " + args + " > " + out.string() + " 2> " + err.string();
   const int rc = std::system(cmd.c_str());
   r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
   r.out = slurp(out);

@@ -12,6 +12,7 @@
 #include "../common/temp.h"
 #include "rvwo/settings/settings.h"
 #include "sim/odometry.h"
+#include "sim/people.h"
 #include "sim/scenario.h"
 #include "sim/scene.h"
 
@@ -115,6 +116,39 @@ TEST(Simulator, LandmarksProjectOntoRenderedCorners) {
   EXPECT_GT(checked, 200);
   EXPECT_LT(worst, 0.5) << "over " << checked << " corners";
   std::cout << checked << " corners, worst distance from the projected landmark " << worst << " px\n";
+}
+
+// A walker wearing a real person: upright on the floor, at the size they were photographed, their
+// silhouette (the cut-out's alpha) labelled; the odd looks mirrored.
+TEST(Simulator, PeopleStandOnTheFloorAtTheirPhotographedSize) {
+  const PinholeCamera cam(400, 400, 319.5, 239.5);
+  const cv::Mat rays = Scene::rayTable(cam, 640, 480);
+  Eigen::Isometry3d T_w_c = Eigen::Isometry3d::Identity();  // level, looking along +x from 1.2 m up
+  T_w_c.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  T_w_c.translation() << -2.0, 0.0, 1.2;
+  const double distance = 3.0;
+  ASSERT_GE(peopleLooks(), 4);
+  std::vector<cv::Mat> labels;
+  for (int look = 0; look < 2; ++look) {
+    Scene scene(10, 8, 2.6, 3, 0);
+    Walker w;
+    w.a = w.b = Eigen::Vector2d(-2.0 + distance, 0.0);
+    w.look = look;
+    scene.addWalker(w);
+    labels.push_back(scene.render(T_w_c, rays, 0.0, RenderOptions()).labels == 15);
+  }
+  const Person& p = people()[0];
+  const cv::Rect box = cv::boundingRect(labels[0]);
+  const double scale = 400 * p.metres / distance / p.alpha.rows;  // image pixels per cut-out pixel
+  EXPECT_NEAR(box.height, p.alpha.rows * scale, 2.0);
+  EXPECT_NEAR(box.y + box.height, 239.5 + 400 * 1.2 / distance, 1.5);  // the feet on the floor
+  EXPECT_NEAR(box.x + 0.5 * box.width, 319.5, 0.5 * scale * p.alpha.cols + 1);
+  EXPECT_NEAR(cv::countNonZero(labels[0]) / (scale * scale * cv::countNonZero(p.alpha)), 1.0, 0.03);
+  cv::Mat flipped;
+  cv::flip(labels[1], flipped, 1);
+  const cv::Rect fbox = cv::boundingRect(flipped);
+  EXPECT_NEAR(fbox.x, box.x, 1);
+  EXPECT_NEAR(cv::countNonZero(flipped & labels[0]) / static_cast<double>(cv::countNonZero(labels[0])), 1.0, 0.05);
 }
 
 TEST(Simulator, OdometryErrorStatisticsMatchTheModel) {
@@ -227,6 +261,7 @@ TEST(Simulator, ScenarioErrorsNameFileAndKey) {
   expectError("Camera.ShotNoise: \"some\"\n", "Camera.ShotNoise: expected a number");
   expectError("Depth.Misregistration: [1.0]\n", "Depth.Misregistration: expected [x, y] in pixels");
   expectError("Depth.MaxIncidence: 0\n", "Depth.MaxIncidence: must be in (0, 90] degrees");
+  expectError("Walkers.Look: \"robots\"\n", "Walkers.Look: people or cylinders");
   Scenario fisheye = scenarioFrom("Sequence.Camera: \"mono\"\nSequence.Lens: \"fisheye\"\n", "fisheye");
   fisheye.camera = "rgbd";  // as rvwo-sim --camera rgbd would (fisheye is mono and stereo only)
   EXPECT_THROW(validateScenario(fisheye, "overrides"), std::runtime_error);
