@@ -74,7 +74,7 @@ for n in "${names[@]}"; do
       awk -v s="$n" -v r="$name" -v ate="${median% *}" -v pct="${median#* }" -v spread="$spread" '
         /speed:/ { for (i = 1; i <= NF; ++i) if ($i ~ /x$/ && $(i+1) == "real") rt = $i }
         /^  frames [0-9]/ { poses = $2 }
-        /poses kept/ { poses = $NF }
+        match($0, /poses kept [0-9]+/) { poses = substr($0, RSTART + 11, RLENGTH - 11) }
         /frames on wheels only/ { w = $5 }
         END { if (w == "") w = "-";
               printf "%-12s %-16s %10s %8s %10s %8s %7s %s\n", s, r, ate, pct, rt, w, poses, spread }' "$out/$name.log"

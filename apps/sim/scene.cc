@@ -164,43 +164,53 @@ Render Scene::render(const Eigen::Isometry3d& T_w_c, const cv::Mat& rays, double
 
 namespace {
 
-// What a row of pixels is cast from: the camera then, and the walkers present then.
-struct RowScene {
-  struct Cyl {
-    double x, y, r, h;
-    int tex, index, look;
-  };
-  Eigen::Matrix3d R;
-  Eigen::Vector3d o;
-  std::vector<Cyl> cyls;
-};
-
 // Where a ray meets a person: its distance (0: no person), their shade and the incidence.
 struct PersonHit {
   double t = 0, value = 0, cosine = 1;
 };
 
-// A ray from o along d against the person `look` standing at (x, y), `height` / 1.75 times their
-// photographed size, upright and facing the ray's origin: a hit nearer than `nearest` on an opaque
-// pixel of theirs.
-bool hitPerson(double x, double y, double height, int look, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-               double nearest, PersonHit* hit) {
+// A person as the rays from o see them: the person `look` standing at base, `height` / 1.75 times
+// their photographed size, upright and facing o. Made once a row of rays.
+struct Picture {
+  const Person* person = nullptr;                   // null: o stands where they do
+  Eigen::Vector3d base = Eigen::Vector3d::Zero();   // where they stand
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();      // the picture's normal, towards o
+  Eigen::Vector3d right = Eigen::Vector3d::Zero();  // the viewer's right
+  double offset = 0;                                // (base - o) . n
+  double tall = 0, wide = 0;                        // m
+  bool mirrored = false;
+};
+
+Picture pictureOf(double x, double y, double height, int look, const Eigen::Vector3d& o) {
+  Picture pic;
   const Person& p = people()[look / 2];
   const Eigen::Vector2d towards(o.x() - x, o.y() - y);
   const double dist = towards.norm();
-  if (dist < 1e-6) return false;
-  const Eigen::Vector3d n(towards.x() / dist, towards.y() / dist, 0);  // the picture's normal, at the camera
-  const double dn = d.dot(n);
+  if (dist < 1e-6) return pic;
+  pic.person = &p;
+  pic.base = Eigen::Vector3d(x, y, 0);
+  pic.n = Eigen::Vector3d(towards.x() / dist, towards.y() / dist, 0);
+  pic.right = Eigen::Vector3d(-pic.n.y(), pic.n.x(), 0);  // looking along -n
+  pic.offset = (pic.base - o).dot(pic.n);
+  pic.tall = p.metres * height / 1.75;
+  pic.wide = pic.tall * p.grey.cols / p.grey.rows;
+  pic.mirrored = look % 2;
+  return pic;
+}
+
+// A ray from o along d against a picture: a hit nearer than `nearest` on an opaque pixel.
+bool hitPerson(const Picture& pic, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double nearest, PersonHit* hit) {
+  if (!pic.person) return false;
+  const Person& p = *pic.person;
+  const double dn = d.dot(pic.n);
   if (dn > -1e-9) return false;
-  const double t = (Eigen::Vector3d(x, y, 0) - o).dot(n) / dn;
+  const double t = pic.offset / dn;
   if (t <= 0 || t >= nearest) return false;
-  const Eigen::Vector3d q = o + t * d - Eigen::Vector3d(x, y, 0);
-  const double tall = p.metres * height / 1.75, wide = tall * p.grey.cols / p.grey.rows;
-  const Eigen::Vector3d right(-n.y(), n.x(), 0);  // the viewer's right, looking along -n
-  double u = (q.dot(right) / wide + 0.5) * p.grey.cols;
-  const double v = (1 - q.z() / tall) * p.grey.rows;
+  const Eigen::Vector3d q = o + t * d - pic.base;
+  double u = (q.dot(pic.right) / pic.wide + 0.5) * p.grey.cols;
+  const double v = (1 - q.z() / pic.tall) * p.grey.rows;
   if (u < 0 || u >= p.grey.cols || v < 0 || v >= p.grey.rows) return false;
-  if (look % 2) u = p.grey.cols - u;  // mirrored
+  if (pic.mirrored) u = p.grey.cols - u;
   const int iu = std::min(static_cast<int>(u), p.grey.cols - 1), iv = std::min(static_cast<int>(v), p.grey.rows - 1);
   if (p.alpha.at<uint8_t>(iv, iu) < 128) return false;
   hit->t = t;
@@ -208,6 +218,18 @@ bool hitPerson(double x, double y, double height, int look, const Eigen::Vector3
   hit->cosine = -dn;
   return true;
 }
+
+// What a row of pixels is cast from: the camera then, and the walkers present then.
+struct RowScene {
+  struct Cyl {
+    double x, y, r, h;
+    int tex, index, look;
+    Picture picture;  // a person's (look >= 0)
+  };
+  Eigen::Matrix3d R;
+  Eigen::Vector3d o;
+  std::vector<Cyl> cyls;
+};
 
 }  // namespace
 
@@ -267,7 +289,8 @@ Render Scene::render(const View& view, const cv::Mat& rays, const RenderOptions&
       if (!walkers_[i].present(t)) continue;
       const Eigen::Vector2d c = walkerAt(i, t, robot);
       const Walker& w = walkers_[i];
-      rs.cyls.push_back({c.x(), c.y(), w.radius, w.height, walker_texture_[i], static_cast<int>(i), w.look});
+      rs.cyls.push_back({c.x(), c.y(), w.radius, w.height, walker_texture_[i], static_cast<int>(i), w.look, Picture()});
+      if (w.look >= 0) rs.cyls.back().picture = pictureOf(c.x(), c.y(), w.height, w.look, rs.o);
     }
     return rs;
   };
@@ -297,7 +320,7 @@ Render Scene::render(const View& view, const cv::Mat& rays, const RenderOptions&
           const RowScene::Cyl& c = rs.cyls[i];
           if (c.look >= 0) {
             PersonHit hit;
-            if (hitPerson(c.x, c.y, c.h, c.look, o, d, best, &hit)) {
+            if (hitPerson(c.picture, o, d, best, &hit)) {
               best = hit.t, walker = static_cast<int>(i), surface = -1, person = hit;
             }
             continue;
