@@ -35,6 +35,12 @@ inline fs::path simulate(const std::string& scenario, double duration, const std
   return dir;
 }
 
+// Scenario lines that give the perfect camera of rvwo-sim's first versions: every camera effect
+// off (docs/simulator.md), for a test of the estimator's logic that the effects would blur.
+inline const char* kPerfectCamera =
+    "Camera.Exposure: 0\nCamera.Vignetting: 0\nCamera.AutoExposure: 0\nCamera.ShotNoise: 0\n"
+    "Depth.Noise: 0\nDepth.MaxIncidence: 90\nDepth.MinAlbedo: 0\nDepth.Misregistration: [0, 0]\n";
+
 // The static scenario as a file of its own in the scratch folder (`name`.yaml, the motion file by
 // absolute path), with Sequence.Camera and Sequence.Lens when given and `extra` lines appended.
 inline fs::path staticScenario(const std::string& name, const std::string& extra, const std::string& camera = "",
