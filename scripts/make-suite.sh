@@ -2,8 +2,8 @@
 # Generates RVWO's scenario suite (scenarios/*.yaml) with rvwo-sim into out/suite/<name>/:
 #   bash scripts/make-suite.sh [--seed N] [--camera stereo|rgbd|mono] [--duration S] [--out DIR] [names...]
 # (DIR: default out/suite; another camera is best kept apart, e.g. --camera rgbd --out out/suite-rgbd)
-# Builds rvwo-sim first (running the set-up if needed). About 8 MB per simulated second of
-# stereo; the whole suite (570 s) is 4.3 GB and takes about 8 minutes on two cores.
+# Builds rvwo-sim first (running the set-up if needed). About 11 MB per simulated second of
+# stereo; the whole suite (570 s) is about 5.6 GB and takes about 13 minutes on two cores (estimated).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
