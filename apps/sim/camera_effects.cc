@@ -35,14 +35,12 @@ cv::Mat ImageSensor::expose(const cv::Mat& radiance, uint64_t noise_seed) const 
       uint8_t* img = image.ptr<uint8_t>(y);
       for (int x = 0; x < radiance.cols; ++x) {
         // The light collected, then noise in proportion to it (shot) and without it (read); the
-        // gain amplifies both.
-        double e = rad[x];
-        if (e_.vignetting != 0) e *= vignette(x, y);
-        const double sigma = e_.shot_noise != 0
-                                 ? std::sqrt(e_.read_noise * e_.read_noise + e_.shot_noise * std::max(e, 0.0))
-                                 : e_.read_noise;
+        // gain amplifies both. With every effect off each step is exact (x 1, sqrt(r^2) = r), so the
+        // perfect camera's bytes come out.
+        const double e = rad[x] * vignette(x, y);
+        const double sigma = std::sqrt(e_.read_noise * e_.read_noise + e_.shot_noise * std::max(e, 0.0));
         const double value = e + sigma * hashNoise(noise_seed, static_cast<uint64_t>(y) * radiance.cols + x);
-        img[x] = cv::saturate_cast<uint8_t>(gain_ == 1 ? value : gain_ * value);
+        img[x] = cv::saturate_cast<uint8_t>(gain_ * value);
       }
     }
   });

@@ -375,21 +375,31 @@ cv::Mat Scene::motionBlur(const Render& r, const View& view, const cv::Mat& rays
   cv::Mat out = r.radiance.clone();
   if (exposure <= 0) return out;
   const int max_samples = 64;
+  // How a row's points move while the shutter is open, exposure seconds around the row's time t:
+  // the camera at t seen from its poses at the opening (a) and closing (b), and how far each walker
+  // moves in those cameras' frames.
+  struct RowMotion {
+    Eigen::Isometry3d T_a_c, T_b_c;
+    std::vector<Eigen::Vector3d> moved_a, moved_b;
+  };
+  auto motionAt = [&](double t) {
+    const double ta = t - 0.5 * exposure, tb = t + 0.5 * exposure;
+    const Eigen::Isometry3d T_w_c = view.T_w_c(t), T_w_a = view.T_w_c(ta), T_w_b = view.T_w_c(tb);
+    const Eigen::Vector3d robot = view.robot(t), robot_a = view.robot(ta), robot_b = view.robot(tb);
+    RowMotion m{T_w_a.inverse() * T_w_c, T_w_b.inverse() * T_w_c, {}, {}};
+    for (std::size_t i = 0; i < walkers_.size(); ++i) {
+      const Eigen::Vector2d w = walkerAt(i, t, robot);
+      const Eigen::Vector2d da = walkerAt(i, ta, robot_a) - w, db = walkerAt(i, tb, robot_b) - w;
+      m.moved_a.push_back(T_w_a.linear().transpose() * Eigen::Vector3d(da.x(), da.y(), 0));
+      m.moved_b.push_back(T_w_b.linear().transpose() * Eigen::Vector3d(db.x(), db.y(), 0));
+    }
+    return m;
+  };
+  const RowMotion global = motionAt(view.t);  // every row's, under a global shutter
   cv::parallel_for_(cv::Range(0, rays.rows), [&](const cv::Range& range) {
     for (int y = range.start; y < range.end; ++y) {
-      // The row's camera at its time and at the shutter's opening and closing; how far each
-      // walker moves in the camera's frame between them.
-      const double t = view.rowTime(y, rays.rows), ta = t - 0.5 * exposure, tb = t + 0.5 * exposure;
-      const Eigen::Isometry3d T_w_c = view.T_w_c(t), T_w_a = view.T_w_c(ta), T_w_b = view.T_w_c(tb);
-      const Eigen::Isometry3d T_a_c = T_w_a.inverse() * T_w_c, T_b_c = T_w_b.inverse() * T_w_c;
-      const Eigen::Vector3d robot = view.robot(t), robot_a = view.robot(ta), robot_b = view.robot(tb);
-      std::vector<Eigen::Vector3d> moved_a(walkers_.size()), moved_b(walkers_.size());
-      for (std::size_t i = 0; i < walkers_.size(); ++i) {
-        const Eigen::Vector2d w = walkerAt(i, t, robot);
-        const Eigen::Vector2d da = walkerAt(i, ta, robot_a) - w, db = walkerAt(i, tb, robot_b) - w;
-        moved_a[i] = T_w_a.linear().transpose() * Eigen::Vector3d(da.x(), da.y(), 0);
-        moved_b[i] = T_w_b.linear().transpose() * Eigen::Vector3d(db.x(), db.y(), 0);
-      }
+      const RowMotion rolling = view.row_delay != 0 ? motionAt(view.rowTime(y, rays.rows)) : RowMotion();
+      const RowMotion& m = view.row_delay != 0 ? rolling : global;
       const cv::Vec3f* ray = rays.ptr<cv::Vec3f>(y);
       const float* dep = r.depth.ptr<float>(y);
       const int8_t* who = r.walker.ptr<int8_t>(y);
@@ -397,10 +407,10 @@ cv::Mat Scene::motionBlur(const Render& r, const View& view, const cv::Mat& rays
       for (int x = 0; x < rays.cols; ++x) {
         if (dep[x] <= 0 || ray[x][2] < 0.05f) continue;
         const Eigen::Vector3d P_c = Eigen::Vector3d(ray[x][0], ray[x][1], ray[x][2]) * (dep[x] / ray[x][2]);
-        Eigen::Vector3d P_a = T_a_c * P_c, P_b = T_b_c * P_c;
+        Eigen::Vector3d P_a = m.T_a_c * P_c, P_b = m.T_b_c * P_c;
         if (who[x] >= 0) {  // the walker's point moves with it
-          P_a += moved_a[who[x]];
-          P_b += moved_b[who[x]];
+          P_a += m.moved_a[who[x]];
+          P_b += m.moved_b[who[x]];
         }
         if (P_a.z() <= 0.05 || P_b.z() <= 0.05) continue;
         const Eigen::Vector2d a = camera.project(P_a), b = camera.project(P_b);
