@@ -1,9 +1,52 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
-// The estimator's public interface, its options' checks and its report; the work is in
-// front_end.cc, map.cc, tracker.cc and mapper.cc (impl.h).
-#include "impl.h"
+// The estimator's public interface, its options' checks and its report, and the frames waiting for
+// their odometry. The work is done by its roles: the front end (front_end.h), the map (map.h), the
+// wheels (wheels.h), the tracker (tracker.h) and local mapping (mapper.h).
+#include <cmath>
+#include <deque>
+#include <stdexcept>
+
+#include "front_end.h"
+#include "map.h"
+#include "mapper.h"
+#include "tracker.h"
+#include "wheels.h"
 
 namespace rvwo::estimator {
+
+struct Estimator::Impl {
+  Impl(const Rig& r, const EstimatorOptions& o, std::shared_ptr<Segmenter> segmenter)
+      : ctx(r, o),
+        wheels(ctx),
+        map(ctx, Mapper::labelsLater(o, segmenter.get())),
+        mapper(ctx, map, wheels, std::move(segmenter)),
+        front_end(ctx),
+        tracker(ctx, map, wheels, mapper, front_end) {
+    // The front end runs one frame ahead of tracking in a thread of its own (not deterministic,
+    // no images in wheel mode): while tracking matches and optimises frame k, frame k+1's
+    // features are being extracted.
+    if (!o.deterministic && o.mode != Mode::kWheel) front_end_queue = std::make_unique<TaskQueue>();
+  }
+
+  // A frame waits until the odometry has passed its time, then is tracked.
+  void drain(bool all);
+
+  Context ctx;
+  Wheels wheels;
+  Map map;
+  Mapper mapper;
+  FrontEnd front_end;
+  Tracker tracker;
+
+  // Frames waiting for the odometry to pass their time, with their front ends under way.
+  struct PendingFrame {
+    FrameInput in;
+    std::future<FrameFeatures> features;  // not valid: made when tracked (deterministic, wheel mode)
+  };
+  std::deque<PendingFrame> pending;
+  double added_t = -1e300;                     // last frame added
+  std::unique_ptr<TaskQueue> front_end_queue;  // last: its thread stops first
+};
 
 double Rig::bf() const { return baseline * camera->fx(); }
 
@@ -44,6 +87,25 @@ void EstimatorOptions::validate() const {
   drive.validate();
 }
 
+void Estimator::Impl::drain(bool all) {
+  // A frame waits until the odometry has passed its time (so its prediction has the readings
+  // that straddle it), for at most a second of frames.
+  // With a front end running ahead, a frame is also held until the next one has come, so that
+  // the next one's features are made while this one is tracked (a frame's latency more).
+  const std::size_t lookahead = front_end_queue ? 1 : 0;
+  while (pending.size() > (all ? 0 : lookahead)) {
+    const double t = pending.front().in.timestamp;
+    bool ready = all || ctx.opt.mode == Mode::kVo || pending.size() > static_cast<std::size_t>(ctx.rig.fps) + 1 ||
+                 wheels.reached(t);
+    if (!ready) break;
+    PendingFrame next = std::move(pending.front());
+    pending.pop_front();
+    const auto t0 = Clock::now();
+    tracker.processFrame(next.in, std::move(next.features));
+    ctx.timings.add("tracking", msSince(t0));  // the frame's whole turn, its waits included
+  }
+}
+
 Estimator::Estimator(const Rig& rig, const EstimatorOptions& options, std::shared_ptr<Segmenter> segmenter) {
   options.validate();
   if (!rig.camera) throw std::invalid_argument("estimator: the rig has no camera");
@@ -61,50 +123,39 @@ Estimator::Estimator(const Rig& rig, const EstimatorOptions& options, std::share
 Estimator::~Estimator() = default;
 
 void Estimator::addOdometryPose(double t, const SE2& T_odom_o) {
-  {
-    std::lock_guard<std::mutex> lock(impl_->odometry_mutex);
-    impl_->odometry.addPose(t, T_odom_o);
-    impl_->has_odometry = true;
-  }
+  impl_->wheels.addPose(t, T_odom_o);
   impl_->drain(false);
 }
 
 void Estimator::addWheelAngles(double t, double q_left, double q_right) {
-  {
-    std::lock_guard<std::mutex> lock(impl_->odometry_mutex);
-    impl_->odometry.addWheelAngles(t, q_left, q_right, impl_->opt.drive);
-    impl_->has_odometry = true;
-  }
+  impl_->wheels.addAngles(t, q_left, q_right);
   impl_->drain(false);
 }
 
 void Estimator::addWheelSpeeds(double t, double w_left, double w_right) {
-  {
-    std::lock_guard<std::mutex> lock(impl_->odometry_mutex);
-    impl_->odometry.addWheelSpeeds(t, w_left, w_right, impl_->opt.drive);
-    impl_->has_odometry = true;
-  }
+  impl_->wheels.addSpeeds(t, w_left, w_right);
   impl_->drain(false);
 }
 
 void Estimator::addFrame(const FrameInput& frame) {
   Impl& s = *impl_;
+  const Rig& rig = s.ctx.rig;
   if (!std::isfinite(frame.timestamp) || frame.timestamp <= s.added_t)
     throw std::invalid_argument("frame at t = " + std::to_string(frame.timestamp) +
                                 ": timestamp not after the previous frame's");
   auto checkImage = [&](const cv::Mat& m, const char* what) {
     if (m.empty()) throw std::invalid_argument(std::string("frame: no ") + what + " image");
-    if (m.cols != s.rig.width || m.rows != s.rig.height)
+    if (m.cols != rig.width || m.rows != rig.height)
       throw std::invalid_argument(std::string("frame: ") + what + " image is " + std::to_string(m.cols) + "x" +
-                                  std::to_string(m.rows) + ", the settings say " + std::to_string(s.rig.width) + "x" +
-                                  std::to_string(s.rig.height));
+                                  std::to_string(m.rows) + ", the settings say " + std::to_string(rig.width) + "x" +
+                                  std::to_string(rig.height));
     if (m.depth() != CV_8U && std::string(what) != "depth")
       throw std::invalid_argument(std::string("frame: ") + what + " image is not 8-bit");
   };
-  if (s.opt.mode != Mode::kWheel) {
+  if (s.ctx.opt.mode != Mode::kWheel) {
     checkImage(frame.image, "camera");
-    if (s.rig.sensor == Sensor::kStereo) checkImage(frame.right, "right");
-    if (s.rig.sensor == Sensor::kRgbd) {
+    if (rig.sensor == Sensor::kStereo) checkImage(frame.right, "right");
+    if (rig.sensor == Sensor::kRgbd) {
       checkImage(frame.depth, "depth");
       if (frame.depth.type() != CV_16U && frame.depth.type() != CV_32F)
         throw std::invalid_argument("frame: depth image is neither 16-bit nor float");
@@ -113,7 +164,7 @@ void Estimator::addFrame(const FrameInput& frame) {
   s.added_t = frame.timestamp;
   Impl::PendingFrame p{frame, {}};
   if (s.front_end_queue) {
-    p.front_end = s.front_end_queue->submit<Impl::FrontEnd>([&s, frame] { return s.frontEnd(frame); });
+    p.features = s.front_end_queue->submit<FrameFeatures>([&s, frame] { return s.front_end(frame); });
   }
   s.pending.push_back(std::move(p));
   s.drain(false);
@@ -122,45 +173,45 @@ void Estimator::addFrame(const FrameInput& frame) {
 void Estimator::finish() {
   Impl& s = *impl_;
   s.drain(true);
-  s.waitForMapper();
-  if (!s.keyframes.empty() && s.opt.mode != Mode::kWheel) {
-    s.applyLabels(true);
-    s.localBundleAdjustment();  // the last keyframes get their full share of refinement
+  s.mapper.waitForIdle();
+  if (!s.map.keyframes.empty() && s.ctx.opt.mode != Mode::kWheel) {
+    s.mapper.applyLabels(true);
+    s.mapper.localBundleAdjustment();  // the last keyframes get their full share of refinement
   }
 }
 
 std::vector<PoseEstimate> Estimator::trajectory() const {
-  std::lock_guard<std::mutex> lock(impl_->map_mutex);
+  const Map& map = impl_->map;
+  std::lock_guard<std::mutex> lock(map.mutex);
   std::vector<PoseEstimate> out;
-  out.reserve(impl_->frames.size());
-  for (const FrameRecord& f : impl_->frames) out.push_back({f.t, impl_->kfPose(f.ref_kf) * f.T_kf_b, f.visual});
+  out.reserve(map.frames.size());
+  for (const FrameRecord& f : map.frames) out.push_back({f.t, map.pose(f), f.visual});
   return out;
 }
 
 Report Estimator::report() const {
-  std::lock_guard<std::mutex> lock(impl_->map_mutex);
-  Report r = impl_->counters;
-  r.frames = impl_->frames.size();
-  r.keyframes = impl_->next_kf;
-  r.map_keyframes = impl_->keyframes.size();
-  r.map_points = impl_->points.size();
-  r.retired_keyframes = impl_->final_pose.size();
-  r.slip_frames = impl_->slip_frames;
-  r.wheel_edge_outliers = impl_->wheel_outliers;
-  if (const std::uint64_t failed = impl_->async ? impl_->async->stats().failed : 0) {
+  const Map& map = impl_->map;
+  std::lock_guard<std::mutex> lock(map.mutex);
+  Report r = map.counters;
+  r.frames = map.frames.size();
+  r.keyframes = map.next_kf;
+  r.map_keyframes = map.keyframes.size();
+  r.map_points = map.points.size();
+  r.retired_keyframes = map.final_pose.size();
+  r.slip_frames = impl_->tracker.slipFrames();
+  r.wheel_edge_outliers = impl_->mapper.wheelOutliers();
+  const AsyncSegmenter* async = impl_->mapper.asyncSegmenter();
+  if (const std::uint64_t failed = async ? async->stats().failed : 0) {
     r.segmentation_failures += failed;
-    if (r.segmentation_error.empty()) r.segmentation_error = "a keyframe: " + impl_->async->lastError();
+    if (r.segmentation_error.empty()) r.segmentation_error = "a keyframe: " + async->lastError();
   }
-  {
-    std::lock_guard<std::mutex> olock(impl_->odometry_mutex);
-    r.wheel_calibration = impl_->calibration.c;
-  }
-  r.timings = impl_->timings.stats();
+  r.wheel_calibration = impl_->wheels.calibration().c;
+  r.timings = impl_->ctx.timings.stats();
   return r;
 }
 
 void Estimator::setFrameCallback(std::function<void(const PoseEstimate&)> callback) {
-  impl_->callback = std::move(callback);
+  impl_->tracker.setCallback(std::move(callback));
 }
 
 }  // namespace rvwo::estimator

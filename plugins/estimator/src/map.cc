@@ -1,41 +1,38 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
-// The map: keyframes, points, their reliability and what tracking may trust.
-#include "impl.h"
+#include "map.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "rvwo/kernels/barron.h"
+#include "rvwo/tracking/planar_pose.h"
 
 namespace rvwo::estimator {
 
-Estimator::Impl::SlipCount Estimator::Impl::slipsBetween(double t0, double t1) {
-  std::lock_guard<std::mutex> lock(slip_mutex);
-  SlipCount n;
-  for (const SlipMark& m : slip_marks) {
-    if (m.t <= t0 || m.t > t1) continue;
-    ++n.frames;
-    n.spins += m.spin;
-  }
-  return n;
-}
+Map::Map(const Context& ctx, bool labels_later)
+    : reliability(ctx.opt.reliability), ctx_(ctx), labels_later_(labels_later) {}
 
-SE2 Estimator::Impl::kfPose(std::uint64_t id) const {
+SE2 Map::kfPose(std::uint64_t id) const {
   auto it = keyframes.find(id);
   if (it != keyframes.end()) return SE2::fromVector(it->second.x);
   auto f = final_pose.find(id);
   return f != final_pose.end() ? f->second : SE2();
 }
 
-double Estimator::Impl::kernelAlpha(std::uint64_t point) const {
-  switch (opt.kernel) {
+double Map::kernelAlpha(std::uint64_t point) const {
+  switch (ctx_.opt.kernel) {
     case KernelChoice::kHuber:
       return 1.0;  // unused
     case KernelChoice::kFixed:
-      return opt.fixed_alpha;
+      return ctx_.opt.fixed_alpha;
     case KernelChoice::kAdaptive:
       return reliability.alpha(point);
   }
   return 1.0;
 }
 
-bool Estimator::Impl::isTrusted(std::uint64_t point) const {
-  if (async) {
+bool Map::isTrusted(std::uint64_t point) const {
+  if (labels_later_) {
     auto p = points.find(point);
     if (p != points.end()) {
       auto kf = keyframes.find(p->second.first_kf);
@@ -43,26 +40,17 @@ bool Estimator::Impl::isTrusted(std::uint64_t point) const {
     }
   }
   const std::optional<LandmarkReliability> r = reliability.get(point);
-  return !r || r->ps < opt.tracking.trusted_max_ps;
+  return !r || r->ps < ctx_.opt.tracking.trusted_max_ps;
 }
 
-std::vector<char> Estimator::Impl::trustedOf(const std::vector<Match>& matches) const {
+std::vector<char> Map::trustedOf(const std::vector<Match>& matches) const {
   std::vector<char> trusted(matches.size());
   for (std::size_t k = 0; k < matches.size(); ++k) trusted[k] = isTrusted(matches[k].point);
   return trusted;
 }
 
-bool Estimator::Impl::predict(const Eigen::Vector3d& x, const Eigen::Vector3d& P_w, Eigen::Vector3d* h) const {
-  if (stereo_edge) return stereo_edge->predict(x, P_w, h);
-  Eigen::Vector2d uv;
-  if (!mono_edge.predict(x, P_w, &uv)) return false;
-  *h << uv, -1.0;
-  return true;
-}
-
-int Estimator::Impl::createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f,
-                                    std::vector<std::int64_t> point_of, const cv::Mat& image, int tracked,
-                                    const std::vector<char>& no_new_point) {
+int Map::createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std::vector<std::int64_t> point_of,
+                        const cv::Mat& image, int tracked, const std::vector<char>& no_new_point) {
   KeyFrame kf;
   kf.id = next_kf++;
   kf.t = t;
@@ -82,14 +70,14 @@ int Estimator::Impl::createKeyFrame(double t, const Eigen::Vector3d& x, Features
       cand.push_back(static_cast<int>(i));
   }
   std::sort(cand.begin(), cand.end(), [&](int a, int b) { return kf.f.depth[a] < kf.f.depth[b]; });
-  const double close = opt.max_depth_baselines * rig.baseline;
+  const double close = ctx_.opt.max_depth_baselines * ctx_.rig.baseline;
   const SE2 T_w_b = SE2::fromVector(x);
   int made = 0;
   for (int i : cand) {
     if (kf.f.depth[i] > close && made >= 100) break;
     const cv::KeyPoint& kp = kf.f.keypoints[i];
-    const Eigen::Vector3d P_c = kf.f.depth[i] * rig.camera->unproject(Eigen::Vector2d(kp.pt.x, kp.pt.y));
-    const Eigen::Vector3d P_b = rig.T_b_c * P_c;
+    const Eigen::Vector3d P_c = kf.f.depth[i] * ctx_.rig.camera->unproject(Eigen::Vector2d(kp.pt.x, kp.pt.y));
+    const Eigen::Vector3d P_b = ctx_.rig.T_b_c * P_c;
     const Eigen::Vector2d xy = T_w_b.act(P_b.head<2>());
     newPoint(&kf, i, Eigen::Vector3d(xy.x(), xy.y(), P_b.z()), P_c.norm());
     ++made;
@@ -97,17 +85,13 @@ int Estimator::Impl::createKeyFrame(double t, const Eigen::Vector3d& x, Features
   const std::uint64_t id = kf.id;
   keyframes.emplace(id, std::move(kf));
   KeyFrame& added = keyframes.at(id);
-  if (rig.sensor == Sensor::kMono) made += triangulate(&added);
+  if (ctx_.rig.sensor == Sensor::kMono) made += triangulate(&added);
   counters.map_points_created += made;
   if (added.tracked == 0) added.tracked = made;
-  frames_since_kf = 0;
-  if (segmenter && async) {
-    async->submit(added.image, FrameInfo{id, t});
-  }
   return made;
 }
 
-MapPoint& Estimator::Impl::newPoint(KeyFrame* kf, int i, const Eigen::Vector3d& P_w, double distance) {
+MapPoint& Map::newPoint(KeyFrame* kf, int i, const Eigen::Vector3d& P_w, double distance) {
   MapPoint p;
   p.id = next_point++;
   p.P = P_w;
@@ -121,17 +105,17 @@ MapPoint& Estimator::Impl::newPoint(KeyFrame* kf, int i, const Eigen::Vector3d& 
   return points.emplace(p.id, std::move(p)).first->second;
 }
 
-int Estimator::Impl::triangulate(KeyFrame* kf) {
-  const Eigen::Isometry3d T_w_c1 = T_w_c(kf->x);
-  const double cos_min = std::cos(opt.mono_min_parallax * M_PI / 180.0);
-  std::vector<double> tolerance(opt.levels);  // rad off the epipolar plane, by pyramid level
-  for (int l = 0; l < opt.levels; ++l)
-    tolerance[l] = 3.0 * opt.sigma_px * std::pow(opt.scale_factor, l) / rig.camera->fx() + 2e-3;
+int Map::triangulate(KeyFrame* kf) {
+  const Eigen::Isometry3d T_w_c1 = ctx_.T_w_c(kf->x);
+  const double cos_min = std::cos(ctx_.opt.mono_min_parallax * M_PI / 180.0);
+  std::vector<double> tolerance(ctx_.opt.levels);  // rad off the epipolar plane, by pyramid level
+  for (int l = 0; l < ctx_.opt.levels; ++l)
+    tolerance[l] = 3.0 * ctx_.opt.sigma_px * std::pow(ctx_.opt.scale_factor, l) / ctx_.rig.camera->fx() + 2e-3;
   auto rays = [&](const KeyFrame& k, const Eigen::Isometry3d& T_w_c) {
     std::vector<Eigen::Vector3d> d(k.f.size());
     for (std::size_t i = 0; i < k.f.size(); ++i) {
       const cv::Point2f& pt = k.f.keypoints[i].pt;
-      d[i] = (T_w_c.linear() * rig.camera->unproject(Eigen::Vector2d(pt.x, pt.y))).normalized();
+      d[i] = (T_w_c.linear() * ctx_.rig.camera->unproject(Eigen::Vector2d(pt.x, pt.y))).normalized();
     }
     return d;
   };
@@ -140,9 +124,9 @@ int Estimator::Impl::triangulate(KeyFrame* kf) {
   auto it = keyframes.find(kf->id);
   for (int n = 0; n < kTriangulationNeighbours && it != keyframes.begin(); ++n) {
     KeyFrame& old = (--it)->second;
-    const Eigen::Isometry3d T_w_c2 = T_w_c(old.x);
+    const Eigen::Isometry3d T_w_c2 = ctx_.T_w_c(old.x);
     const Eigen::Vector3d c1 = T_w_c1.translation(), c2 = T_w_c2.translation(), base = c2 - c1;
-    if (base.norm() < opt.mono_min_baseline) continue;
+    if (base.norm() < ctx_.opt.mono_min_baseline) continue;
     const std::vector<Eigen::Vector3d> d2 = rays(old, T_w_c2);
     std::vector<int> free_old;
     for (std::size_t j = 0; j < old.f.size(); ++j) {
@@ -179,8 +163,8 @@ int Estimator::Impl::triangulate(KeyFrame* kf) {
       const Eigen::Vector3d P = 0.5 * (c1 + a * u + c2 + b * v);
       auto fits = [&](const KeyFrame& k, int f) {
         double e2;
-        const double sigma = opt.sigma_px * std::pow(opt.scale_factor, k.f.keypoints[f].octave);
-        return chi2(false, k.x, P, observation(k.f, f), sigma, &e2) && e2 <= kChi2Mono;
+        const double sigma = ctx_.sigmaAt(k.f.keypoints[f].octave);
+        return ctx_.chi2(false, k.x, P, Context::observation(k.f, f), sigma, &e2) && e2 <= kChi2Mono;
       };
       if (!fits(*kf, i) || !fits(old, static_cast<int>(j))) continue;
       MapPoint& p = newPoint(kf, i, P, (P - c1).norm());
@@ -192,18 +176,17 @@ int Estimator::Impl::triangulate(KeyFrame* kf) {
   return made;
 }
 
-void Estimator::Impl::cullPoints() {
-  std::lock_guard<std::mutex> lock(map_mutex);
+void Map::cullPoints() {
+  std::lock_guard<std::mutex> lock(mutex);
   if (keyframes.empty()) return;
   const std::uint64_t newest = std::prev(keyframes.end())->first;
   for (auto it = points.begin(); it != points.end();) {
     const MapPoint& p = it->second;
     const bool rarely_found = p.visible >= 8 && p.found < 0.25 * p.visible;
-    const bool lonely = newest >= p.first_kf + 3 && p.obs.size() <= 1 && rig.sensor == Sensor::kMono;
+    const bool lonely = newest >= p.first_kf + 3 && p.obs.size() <= 1 && ctx_.rig.sensor == Sensor::kMono;
     if (rarely_found || lonely || p.obs.empty()) {
-      if (reliability.alpha(it->first) == -BarronKernel::kInfinity) ++counters.map_points_rejected;
       eraseObservations(p);
-      reliability.forget(it->first);
+      forget(it->first);
       it = points.erase(it);
     } else {
       ++it;
@@ -211,16 +194,16 @@ void Estimator::Impl::cullPoints() {
   }
 }
 
-void Estimator::Impl::eraseObservations(const MapPoint& p) {
+void Map::eraseObservations(const MapPoint& p) {
   for (const auto& [kf_id, feature] : p.obs) {
     auto kf = keyframes.find(kf_id);
     if (kf != keyframes.end()) kf->second.point[feature] = -1;
   }
 }
 
-void Estimator::Impl::dropOldKeyFrames() {
-  std::lock_guard<std::mutex> lock(map_mutex);
-  while (keyframes.size() > static_cast<std::size_t>(opt.keep_keyframes)) {
+std::optional<double> Map::dropOldKeyFrames() {
+  std::lock_guard<std::mutex> lock(mutex);
+  while (keyframes.size() > static_cast<std::size_t>(ctx_.opt.keep_keyframes)) {
     auto it = keyframes.begin();
     const KeyFrame& kf = it->second;
     final_pose[kf.id] = SE2::fromVector(kf.x);
@@ -230,21 +213,19 @@ void Estimator::Impl::dropOldKeyFrames() {
       if (p == points.end()) continue;
       p->second.obs.erase(kf.id);
       if (p->second.obs.empty()) {
-        if (reliability.alpha(p->first) == -BarronKernel::kInfinity) ++counters.map_points_rejected;
-        reliability.forget(p->first);
+        forget(p->first);
         points.erase(p);
       }
     }
     keyframes.erase(it);
   }
-  if (!keyframes.empty()) {
-    std::lock_guard<std::mutex> slock(slip_mutex);
-    while (!slip_marks.empty() && slip_marks.front().t < keyframes.begin()->second.t) slip_marks.pop_front();
-  }
-  if (!keyframes.empty()) {
-    std::lock_guard<std::mutex> olock(odometry_mutex);
-    if (!odometry.empty()) odometry.dropBefore(keyframes.begin()->second.t - 1.0);
-  }
+  if (keyframes.empty()) return std::nullopt;
+  return keyframes.begin()->second.t;
+}
+
+void Map::forget(std::uint64_t point) {
+  if (reliability.alpha(point) == -BarronKernel::kInfinity) ++counters.map_points_rejected;
+  reliability.forget(point);
 }
 
 }  // namespace rvwo::estimator

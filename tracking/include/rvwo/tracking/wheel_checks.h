@@ -43,7 +43,7 @@ bool looksLikeSlip(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
 // A slip frame where the robot about stood while the wheels went on (spinning in place): vision
 // alone saw no more than kSpinSeen of the travel they claimed and of their turn, give or take
 // kSpinSlack. A skid (the robot moving, only not as claimed) is not one. Local BA leaves a wheel
-// edge across such frames out of its first round (Estimator::Impl::localBundleAdjustment).
+// edge across such frames out of its first round (the estimator's Mapper::addWheelEdges).
 constexpr double kSpinSeen = 0.5;     // of the claim
 constexpr double kSpinSlack = 0.002;  // m and rad
 bool slipIsSpin(const WheelDelta& wheels, const SE2& T_b0_b1_vision);
