@@ -1,0 +1,98 @@
+// Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
+// The policy suite (tests/common/policy_scenes.h) through RVWO's estimator: its tracker, map and
+// local mapping as the estimator runs them (deterministic), fed each frame's features as its front
+// end would make them (one descriptor a landmark, stereo column and depth from the truth).
+#include <gtest/gtest.h>
+
+#include <future>
+#include <random>
+
+#include "../common/policy_scenes.h"
+#include "front_end.h"
+#include "map.h"
+#include "mapper.h"
+#include "tracker.h"
+#include "wheels.h"
+
+namespace {
+
+using namespace rvwo::estimator;
+using rvwo::test::PolicyRig;
+using rvwo::test::PolicyScene;
+
+Rig rigOf(const PolicyRig& r) {
+  Rig rig;
+  rig.sensor = Sensor::kStereo;
+  rig.camera = std::make_shared<rvwo::PinholeCamera>(r.fx, r.fx, r.cx, r.cy);
+  rig.width = r.width;
+  rig.height = r.height;
+  rig.fps = r.fps;
+  rig.baseline = r.baseline;
+  rig.T_b_c = r.T_b_c;
+  return rig;
+}
+
+// Each landmark's descriptor: 32 random bytes (two differ in about 128 bits of 256).
+cv::Mat descriptors(int n) {
+  std::mt19937 rng(7);
+  cv::Mat d(n, 32, CV_8U);
+  for (int k = 0; k < n; ++k)
+    for (int b = 0; b < 32; ++b) d.at<std::uint8_t>(k, b) = static_cast<std::uint8_t>(rng() & 0xFF);
+  return d;
+}
+
+FrameFeatures featuresAt(const PolicyScene& s, const PolicyRig& r, double t, const cv::Mat& descriptors) {
+  FrameFeatures out;
+  Features& f = out.f;
+  for (const rvwo::test::Sighting& g : s.sightings(r, t)) {
+    f.keypoints.emplace_back(static_cast<float>(g.u), static_cast<float>(g.v), 31.f, -1.f, 100.f, 0);
+    f.descriptors.push_back(descriptors.row(g.landmark));
+    f.u_right.push_back(static_cast<float>(g.u_right));
+    f.depth.push_back(static_cast<float>(g.depth));
+  }
+  f.buildGrid(r.width, r.height);
+  return out;
+}
+
+rvwo::test::PolicyOutcome replay(const PolicyScene& s) {
+  const PolicyRig pr;
+  EstimatorOptions opt;
+  opt.deterministic = true;
+  opt.semantics = false;
+  Context ctx(rigOf(pr), opt);
+  Wheels wheels(ctx);
+  Map map(ctx, false);
+  Mapper mapper(ctx, map, wheels, nullptr);
+  const FrontEnd front_end(ctx);
+  Tracker tracker(ctx, map, wheels, mapper, front_end);
+  const cv::Mat d = descriptors(s.size());
+  double odometry_t = 0;
+  for (int i = 0; i < s.frames(pr); ++i) {
+    const double t = i / pr.fps;
+    for (; odometry_t <= t + 0.011; odometry_t += 0.01) wheels.addPose(odometry_t, s.claimed(odometry_t));
+    std::promise<FrameFeatures> made;
+    made.set_value(featuresAt(s, pr, t, d));
+    FrameInput in;
+    in.timestamp = t;
+    tracker.processFrame(in, made.get_future());
+  }
+  rvwo::test::PolicyOutcome o;
+  std::lock_guard<std::mutex> lock(map.mutex);
+  for (const FrameRecord& f : map.frames) {
+    if (f.slip) o.slip_t.push_back(f.t);
+    o.blind += !f.visual;
+    o.max_error = std::max(o.max_error, (s.truth(f.t).inverse() * map.pose(f)).translation().norm());
+  }
+  return o;
+}
+
+class EstimatorPolicy : public ::testing::TestWithParam<PolicyScene> {};
+
+TEST_P(EstimatorPolicy, DecidesAsTheSceneSays) {
+  rvwo::test::expectCalls(GetParam(), rvwo::test::PolicyHost::kEstimator, replay(GetParam()));
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, EstimatorPolicy, ::testing::ValuesIn(rvwo::test::policyScenes()),
+                         [](const ::testing::TestParamInfo<PolicyScene>& i) { return i.param.name; });
+
+}  // namespace
