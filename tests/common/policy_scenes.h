@@ -43,6 +43,7 @@ struct PolicyCalls {
   double slip_to = -1e9;    // ... nor after this
   int min_slip_frames = 0;  // slip frames at least
   double max_error = 0.01;  // m: every frame's pose from the truth
+  int max_blind = 0;        // frames the wheels alone may place
 };
 
 enum class PolicyHost { kEstimator, kOrbSlam3 };
@@ -55,7 +56,8 @@ struct PolicyScene {
   std::vector<Eigen::Vector3d> landmarks;  // world, static
   std::vector<Eigen::Vector3d> walker;     // world at t = 0; they move with walker_at
   std::function<Eigen::Vector3d(double)> walker_at = [](double) { return Eigen::Vector3d::Zero(); };
-  PolicyCalls calls;  // both hosts'
+  double dark_from = 1e9, dark_to = -1e9;  // s: the camera sees nothing in [dark_from, dark_to)
+  PolicyCalls calls;                       // both hosts'
   // Where a host still decides otherwise: a difference to remove, each named in
   // docs/decisions/0016 (one policy, then one value here).
   std::optional<PolicyCalls> estimator, orbslam3;
@@ -77,7 +79,7 @@ struct PolicyScene {
   std::vector<Sighting> sightings(const PolicyRig& rig, double t) const {
     const Eigen::Isometry3d T_c_w = (truth(t).isometry3() * rig.T_b_c).inverse();
     std::vector<Sighting> out;
-    for (int k = 0; k < size(); ++k) {
+    for (int k = 0; k < size() && !(t >= dark_from && t < dark_to); ++k) {
       const Eigen::Vector3d P_c = T_c_w * at(k, t);
       if (P_c.z() < 0.5 || P_c.z() > 12) continue;
       const double u = rig.fx * P_c.x() / P_c.z() + rig.cx, v = rig.fx * P_c.y() / P_c.z() + rig.cy;
@@ -154,6 +156,21 @@ inline std::vector<PolicyScene> policyScenes() {
     s.estimator = PolicyCalls{0.0, 0.04, 1, 0.05};
     scenes.push_back(s);
   }
+  {
+    // A blackout: the camera sees nothing from 1.0 to 1.5 s while the wheels claim 10 % more
+    // than the robot drives (1.5 cm by its end). The wheels carry those frames, and vision takes
+    // over again on the first frame back, where the map says.
+    PolicyScene s;
+    s.name = "blackout";
+    s.truth = gentleDrive;
+    s.claimed = [](double t) { return gentleDrive(t + 0.1 * (std::clamp(t, 1.0, 1.5) - 1.0)); };
+    s.landmarks = roomAhead(400, 5);
+    s.dark_from = 1.0;
+    s.dark_to = 1.5;
+    s.calls.max_blind = 15;
+    s.calls.max_error = 0.02;
+    scenes.push_back(s);
+  }
   return scenes;
 }
 
@@ -169,11 +186,12 @@ inline void expectCalls(const PolicyScene& s, PolicyHost host, const PolicyOutco
   const PolicyCalls& c = s.callsOf(host);
   std::string slips;
   for (double t : o.slip_t) slips += " " + std::to_string(t).substr(0, 5);
-  const std::string said = s.name + ": error " + std::to_string(o.max_error) + " m, slip frames at" + slips;
+  const std::string said = s.name + ": error " + std::to_string(o.max_error) + " m, " + std::to_string(o.blind) +
+                           " frames on the wheels, slip frames at" + slips;
   std::printf("%s\n", said.c_str());
   SCOPED_TRACE(said);
   EXPECT_LE(o.max_error, c.max_error);
-  EXPECT_EQ(o.blind, 0);
+  EXPECT_LE(o.blind, c.max_blind);
   EXPECT_GE(static_cast<int>(o.slip_t.size()), c.min_slip_frames);
   for (double t : o.slip_t) {
     EXPECT_GE(t, c.slip_from) << "a slip frame before the slip";
