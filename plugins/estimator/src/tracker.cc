@@ -67,7 +67,7 @@ void Tracker::predictFrame(FrameWork* w) {
   {
     std::lock_guard<std::mutex> lock(map_.mutex);
     const FrameRecord& prev = map_.frames.back();
-    last_pose_ = map_.kfPose(prev.ref_kf) * prev.T_kf_b;
+    last_pose_ = map_.pose(prev);
   }
   w->delta = wheels_.delta(last_t_, w->t);
   w->predicted =
@@ -245,7 +245,7 @@ bool Tracker::onTheWheelsWay(const Eigen::Vector3d& x, double t) const {
   const FrameRecord& v = map_.frames[j - 1];
   const std::optional<WheelDelta> stretch = wheels_.delta(v.t, t);
   if (!stretch || stretch->t0 > v.t + 1e-6) return true;  // no readings over the whole stretch to hold it to
-  return onTheClaimedWay(*stretch, (map_.kfPose(v.ref_kf) * v.T_kf_b).inverse() * SE2::fromVector(x));
+  return onTheClaimedWay(*stretch, map_.pose(v).inverse() * SE2::fromVector(x));
 }
 
 void Tracker::spreadCorrection(const SE2& C, double t) {
@@ -267,7 +267,7 @@ void Tracker::finishFrame(const FrameRecord& record, double t) {
   {
     std::lock_guard<std::mutex> lock(map_.mutex);
     map_.frames.push_back(record);
-    const SE2 pose = map_.kfPose(record.ref_kf) * record.T_kf_b;
+    const SE2 pose = map_.pose(record);
     if (has_last_) velocity_ = last_pose_.inverse() * pose;
     last_pose_ = pose;
     pe = {t, pose, record.visual};
