@@ -118,15 +118,15 @@ struct Host {
   // Where they still differ (docs/decisions/0011): frames a spin goes on before its slip is called,
   // how far the wheels take the pose meanwhile (m), and frames the slip outlasts the spin. The
   // plugin's creep test sees the spin in vision alone's own track a frame in, and goes on seeing it
-  // there until the spin has left the track (kCreepStretch); the estimator's counts wait for the
-  // fused pose to lose inliers.
+  // there until the spin has left the track's recent part (kCreepRecent); the estimator's counts
+  // wait for the fused pose to lose inliers.
   int spin_lag;
   double spin_off;
   int slip_outlasts;
 };
 std::vector<Host> stereoHosts() {
   return {{"estimator", estimatorOptions(false), 7, 0.055, 2},
-          {"plugin", pluginOptions(), 1, 0.01, static_cast<int>(FrameArbiter::kCreepStretch * kFps) + 1}};
+          {"plugin", pluginOptions(), 1, 0.01, static_cast<int>(FrameArbiter::kCreepRecent * kFps) + 1}};
 }
 
 // One host's run: each frame's decision, where the robot truly was, and whether the arbiter was

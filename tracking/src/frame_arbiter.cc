@@ -135,17 +135,23 @@ FrameArbiter::VisionAlone FrameArbiter::solveVisionAlone(const FrameEvidence& e)
 }
 
 // Creep: vision alone's pose joins the track where it would overrule the wheels (the go-on bar and
-// 85 % of the candidates); a frame solved again replaces its entry. (The ORB-SLAM3 plugin's.)
+// 85 % of the candidates); a frame solved again replaces its entry. The creep must show over the
+// whole stretch and over its recent part (from the last entry kCreepRecent back or more), so that
+// it ends once the robot has driven on for kCreepRecent, not for the whole stretch.
 bool FrameArbiter::creeps(const FrameEvidence& e, const VisionAlone& v, int bar, int candidates, double* slip_from) {
   const bool placed = v.placed >= bar && v.placed >= 0.85 * static_cast<double>(candidates);
   if (!track_.empty() && track_.back().t == e.t) track_.pop_back();
   while (!track_.empty() && track_.front().t < e.t - kCreepStretch) track_.pop_front();
+  auto creepsFrom = [&](const Seen& from) {
+    const std::optional<WheelDelta> stretch = e.wheels_between(from.t, e.t);
+    return stretch && wheelsCreep(*stretch, from.x, from.information, v.x, v.result.information);
+  };
   bool creeping = false;
-  if (placed && !track_.empty() && e.wheels_between) {
-    if (const std::optional<WheelDelta> stretch = e.wheels_between(track_.front().t, e.t)) {
-      creeping = wheelsCreep(*stretch, track_.front().x, track_.front().information, v.x, v.result.information);
-      if (creeping) *slip_from = std::min(*slip_from, track_.front().t);
-    }
+  if (placed && !track_.empty() && e.wheels_between && creepsFrom(track_.front())) {
+    auto recent =
+        std::find_if(track_.rbegin(), track_.rend(), [&](const Seen& s) { return s.t <= e.t - kCreepRecent; });
+    creeping = recent == track_.rend() || recent->t == track_.front().t || creepsFrom(*recent);
+    if (creeping) *slip_from = std::min(*slip_from, track_.front().t);
   }
   if (placed) track_.push_back({e.t, v.x, v.result.information});
   return creeping;

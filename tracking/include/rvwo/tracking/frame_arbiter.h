@@ -99,6 +99,7 @@ class FrameArbiter {
  public:
   // Vision alone's track for the creep test (seconds) and the stall test (seconds, frames in a row).
   static constexpr double kCreepStretch = 0.5;  // 8 mm a frame of creep adds up in 3 to 6 frames
+  static constexpr double kCreepRecent = 0.25;  // ... and must show over this recent part too
   static constexpr double kStallStretch = 0.2;  // 3 cm (kStallTravel) at 0.15 m/s
   static constexpr int kStallFrames = 5;        // a bump or a walker pulls vision alone off for one or two stretches
   // A stall-tested slip that starts farther back than the wheels' claim (missBeyondTheClaim) needs
