@@ -407,8 +407,10 @@ class ReplayApp {
         q_left0_ = o.ticks_left;
         q_right0_ = o.ticks_right;
       }
-      const double ql = (o.ticks_left - q_left0_) * k, qr = (o.ticks_right - q_right0_) * k;
-      pass(gate_->wheelAngles(o.t, ql, qr));
+      const double ql_read = (o.ticks_left - q_left0_) * k, qr_read = (o.ticks_right - q_right0_) * k;
+      pass(gate_->wheelAngles(o.t, ql_read, qr_read));
+      const Eigen::Vector2d q = gate_->asTaken(ql_read, qr_read);  // after a counter reset: from the angle before
+      const double ql = q.x(), qr = q.y();
 #ifdef RVWO_WITH_ORBSLAM3
       if (orbslam3_) orbslam3_->addWheels(rvwo::orbslam3::WheelReading::angles(o.t, ql, qr), orbslam3Progress());
 #endif
@@ -425,14 +427,19 @@ class ReplayApp {
       if (estimator_) estimator_->addWheelSpeeds(o.t, wl, wr);
     } else {
       pass(gate_->pose(o.t, o.pose));
+      const rvwo::SE2 T_odom_o = gate_->asTaken(o.pose);
 #ifdef RVWO_WITH_ORBSLAM3
       if (orbslam3_) {
-        orbslam3_->addWheels(
-            rvwo::orbslam3::WheelReading::pose(o.t, o.pose.translation().x(), o.pose.translation().y(), o.pose.angle()),
-            orbslam3Progress());
+        orbslam3_->addWheels(rvwo::orbslam3::WheelReading::pose(o.t, T_odom_o.translation().x(),
+                                                                T_odom_o.translation().y(), T_odom_o.angle()),
+                             orbslam3Progress());
       }
 #endif
-      if (estimator_) estimator_->addOdometryPose(o.t, o.pose);
+      if (estimator_) estimator_->addOdometryPose(o.t, T_odom_o);
+    }
+    if (!gate_->restart().empty()) {
+      ++odometry_restarts_;
+      std::fprintf(stderr, "%srvwo-replay: %s\n", tty_ ? "\n" : "", gate_->restart().c_str());
     }
   }
 
@@ -593,6 +600,8 @@ class ReplayApp {
     if (skipped_ > 0) std::printf("  records skipped: %zu (see stderr)\n", skipped_);
     if (opt_.mode != rvwo::estimator::Mode::kVo && odometry_used_ < odometry_count_)
       std::printf("  odometry records used: %zu of %zu\n", odometry_used_, odometry_count_);
+    if (odometry_restarts_ > 0)
+      std::printf("  odometry restarts taken as a new origin: %zu (see stderr)\n", odometry_restarts_);
     // CPU as well as wall time: the wall time depends on what else the machine runs, the CPU says
     // how much of it a second of data takes (on two cores, 2x real time needs at most 1 s of CPU a
     // data second, and threads that keep both cores busy).
@@ -730,7 +739,7 @@ class ReplayApp {
   std::chrono::steady_clock::time_point t_start_ = std::chrono::steady_clock::now();
   double first_t_ = NAN, last_t_ = NAN, last_progress_ = -1, wall_ = 0;
   double q_left0_ = NAN, q_right0_ = NAN;  // the first encoder ticks: wheel angles count from them
-  std::size_t frames_ = 0, odometry_count_ = 0, odometry_used_ = 0, skipped_ = 0;
+  std::size_t frames_ = 0, odometry_count_ = 0, odometry_used_ = 0, skipped_ = 0, odometry_restarts_ = 0;
   std::string first_skip_, read_error_;
   std::optional<FrameInput> held_;
   // What it produced.

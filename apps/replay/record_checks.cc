@@ -27,7 +27,7 @@ int sensorOf(const ReplayEvent& e, double* t) {
 
 template <typename... Number>
 std::string format(const char* pattern, Number... n) {
-  char s[200];
+  char s[400];
   std::snprintf(s, sizeof s, pattern, n...);
   return s;
 }
@@ -96,59 +96,105 @@ OdometryLimits readOdometryLimits(const Settings& s) {
 }
 
 std::string OdometryGate::pose(double t, const SE2& T_odom_o) {
-  if (std::isnan(last_t_)) {
-    last_t_ = t;
-    last_pose_ = T_odom_o;
-  }
-  if (!(t > last_t_)) return "";  // the first reading, or a time that does not increase (the backend refuses it)
-  const SE2 d = last_pose_.inverse() * T_odom_o;
-  const double dt = t - last_t_;
-  const std::string why = judge(t, d.translation().norm() / dt, std::fabs(d.angle()) / dt);
-  if (why.empty()) last_pose_ = T_odom_o;
-  return why;
+  poses_ = true;
+  Reading r;
+  r.t = t;
+  r.pose = T_odom_o;
+  return judge(r);
 }
 
 std::string OdometryGate::wheelAngles(double t, double q_left, double q_right) {
-  if (std::isnan(last_t_)) {
-    last_t_ = t;
-    last_q_left_ = q_left;
-    last_q_right_ = q_right;
-  }
-  if (!(t > last_t_)) return "";
-  const double dt = t - last_t_;
-  const double v_l = (q_left - last_q_left_) * drive_.radius_left / dt,
-               v_r = (q_right - last_q_right_) * drive_.radius_right / dt;
-  const std::string why = judge(t, std::max(std::fabs(v_l), std::fabs(v_r)), std::fabs(v_r - v_l) / drive_.track);
-  if (why.empty()) {
-    last_q_left_ = q_left;
-    last_q_right_ = q_right;
-  }
-  return why;
+  Reading r;
+  r.t = t;
+  r.q = Eigen::Vector2d(q_left, q_right);
+  return judge(r);
 }
 
 std::string OdometryGate::wheelSpeeds(double t, double w_left, double w_right) {
-  if (std::isnan(last_t_)) last_t_ = t;
-  if (!(t > last_t_)) return "";
+  if (std::isnan(last_speeds_t_)) last_speeds_t_ = t;
+  if (!(t > last_speeds_t_)) return "";
+  const double dt = t - last_speeds_t_;
   const double v_l = w_left * drive_.radius_left, v_r = w_right * drive_.radius_right;
-  return judge(t, std::max(std::fabs(v_l), std::fabs(v_r)), std::fabs(v_r - v_l) / drive_.track);
-}
-
-std::string OdometryGate::judge(double t, double v, double omega) {
-  const double dt = t - last_t_;
-  std::string why;
-  if (!(v <= limits_.max_speed)) {
-    why = format("a speed of %.3g m/s over %.3g s (Odometry.MaxSpeed %g)", v, dt, limits_.max_speed);
-  } else if (!(omega <= limits_.max_turn_rate)) {
-    why = format("a turn rate of %.3g rad/s over %.3g s (Odometry.MaxTurnRate %g)", omega, dt, limits_.max_turn_rate);
-  } else if (limits_.max_acceleration > 0 && last_v_ &&
-             std::fabs(v - *last_v_) > limits_.max_acceleration * dt + 0.1 * limits_.max_speed) {
-    why = format("a speed change of %.3g m/s in %.3g s (Odometry.MaxAcceleration %g)", std::fabs(v - *last_v_), dt,
-                 limits_.max_acceleration);
-  }
+  const double v = std::max(std::fabs(v_l), std::fabs(v_r));
+  const std::string why = beyondLimits(v, std::fabs(v_r - v_l) / drive_.track, dt, true);
   if (!why.empty()) return why;
-  last_t_ = t;
+  last_speeds_t_ = t;
   last_v_ = v;
   return "";
+}
+
+std::pair<double, double> OdometryGate::motion(const Reading& a, const Reading& b) const {
+  const double dt = b.t - a.t;
+  if (poses_) {
+    const SE2 d = a.pose.inverse() * b.pose;
+    return {d.translation().norm() / dt, std::fabs(d.angle()) / dt};
+  }
+  const double v_l = (b.q.x() - a.q.x()) * drive_.radius_left / dt,
+               v_r = (b.q.y() - a.q.y()) * drive_.radius_right / dt;
+  return {std::max(std::fabs(v_l), std::fabs(v_r)), std::fabs(v_r - v_l) / drive_.track};
+}
+
+std::string OdometryGate::beyondLimits(double v, double omega, double dt, bool acceleration) const {
+  if (!(v <= limits_.max_speed))
+    return format("a speed of %.3g m/s over %.3g s (Odometry.MaxSpeed %g)", v, dt, limits_.max_speed);
+  if (!(omega <= limits_.max_turn_rate))
+    return format("a turn rate of %.3g rad/s over %.3g s (Odometry.MaxTurnRate %g)", omega, dt, limits_.max_turn_rate);
+  if (acceleration && limits_.max_acceleration > 0 && last_v_ &&
+      std::fabs(v - *last_v_) > limits_.max_acceleration * dt + 0.1 * limits_.max_speed) {
+    return format("a speed change of %.3g m/s in %.3g s (Odometry.MaxAcceleration %g)", std::fabs(v - *last_v_), dt,
+                  limits_.max_acceleration);
+  }
+  return "";
+}
+
+std::string OdometryGate::judge(const Reading& b) {
+  restart_.clear();
+  if (!last_) last_ = b;
+  if (!(b.t > last_->t)) return "";  // the first reading, or a time that does not increase (the backend refuses it)
+  const double dt = b.t - last_->t;
+  const auto [v, omega] = motion(*last_, b);
+  const std::string why = beyondLimits(v, omega, dt, true);
+  if (why.empty()) {
+    rate_ = poses_ ? Eigen::Vector3d((last_->pose.inverse() * b.pose).log() / dt)
+                   : Eigen::Vector3d((b.q.x() - last_->q.x()) / dt, (b.q.y() - last_->q.y()) / dt, 0.0);
+    last_ = b;
+    last_v_ = v;
+    run_.clear();
+    return "";
+  }
+  // Refused: does it go on from the refused readings before it?
+  if (!run_.empty()) {
+    const auto [rv, romega] = motion(run_.back(), b);
+    if (!(b.t > run_.back().t) || !beyondLimits(rv, romega, b.t - run_.back().t, false).empty()) run_.clear();
+  }
+  if (run_.empty()) run_why_ = why;
+  run_.push_back(b);
+  if (static_cast<int>(run_.size()) < kRestartReadings) return why;
+  restartAt(b);
+  return "";
+}
+
+// The run becomes the odometry: from the last reading taken, across the jump to the run's first
+// at the rate before it, then as the run itself moves.
+void OdometryGate::restartAt(const Reading& b) {
+  const Reading& first = run_.front();
+  const double gap = first.t - last_->t;
+  if (poses_) {
+    correction_ = correction_ * last_->pose * SE2::exp(rate_ * gap) * first.pose.inverse();
+  } else {
+    offset_ += last_->q + rate_.head<2>() * gap - first.q;
+  }
+  restart_ = format(
+      "odometry restarted at t = %.6f: the %d readings from t = %.6f on agree among themselves but not "
+      "with the one before (%s); taken as a new origin, the jump bridged at the speed before it",
+      b.t, static_cast<int>(run_.size()), first.t, run_why_.c_str());
+  const Reading& before = run_[run_.size() - 2];
+  const double dt = b.t - before.t;
+  rate_ = poses_ ? Eigen::Vector3d((before.pose.inverse() * b.pose).log() / dt)
+                 : Eigen::Vector3d((b.q.x() - before.q.x()) / dt, (b.q.y() - before.q.y()) / dt, 0.0);
+  last_ = b;
+  last_v_.reset();
+  run_.clear();
 }
 
 }  // namespace rvwo::apps

@@ -4,7 +4,7 @@
 // odometry a wheeled robot cannot give (a reading 1000 m off, encoder ticks that jump by 1e6 or
 // back by 5000, a spin faster than the limit, a spike where an acceleration limit is set) is
 // refused, and the reading after it is judged against the last one accepted; a robot that drives
-// backwards is no fault.
+// backwards is no fault; a jump that persists (a counter reset) becomes a new origin.
 #include "replay/record_checks.h"
 
 #include <gtest/gtest.h>
@@ -136,6 +136,73 @@ TEST(OdometryGate, LimitsFromTheSettingsAreChecked) {
   EXPECT_EQ(gate.wheelSpeeds(0.0, 10.0, 10.0), "");
   EXPECT_EQ(gate.wheelSpeeds(0.01, 10.0, 10.0), "");  // 0.8 m/s
   EXPECT_NE(gate.wheelSpeeds(0.02, 25.0, 25.0).find("a speed of 2 m/s"), std::string::npos);
+}
+
+// Pose odometry 1000 m off from 0.10 s on while the robot drives on at 0.5 m/s and 0.2 rad/s: the
+// first kRestartReadings - 1 readings are refused, then the run is the new origin, and every
+// reading from there is where the robot is (constant speed: the bridge across the jump is exact).
+TEST(OdometryGate, APoseJumpThatPersistsBecomesANewOrigin) {
+  OdometryGate gate(OdometryLimits(), drive());
+  const auto truth = [](int k) { return SE2::exp(Eigen::Vector3d(0.005 * k, 0, 0.002 * k)); };
+  const SE2 jump(1000.0, -20.0, 1.0);
+  for (int k = 0; k < 10; ++k) EXPECT_EQ(gate.pose(0.01 * k, truth(k)), "") << k;
+  for (int k = 10; k < 10 + OdometryGate::kRestartReadings - 1; ++k) {
+    EXPECT_EQ(gate.pose(0.01 * k, jump * truth(k)).rfind("a speed of ", 0), 0u) << k;
+    EXPECT_EQ(gate.restart(), "");
+  }
+  const int k0 = 10 + OdometryGate::kRestartReadings - 1;
+  EXPECT_EQ(gate.pose(0.01 * k0, jump * truth(k0)), "");
+  EXPECT_EQ(gate.restart().rfind("odometry restarted at t = 0.140000: the 5 readings from t = 0.100000 on agree among "
+                                 "themselves but not with the one before (a speed of 1e+05 m/s over 0.01 s",
+                                 0),
+            0u)
+      << gate.restart();
+  for (int k = k0; k < 40; ++k) {
+    if (k > k0) EXPECT_EQ(gate.pose(0.01 * k, jump * truth(k)), "") << k;
+    const SE2 taken = gate.asTaken(jump * truth(k));
+    EXPECT_LT((taken.translation() - truth(k).translation()).norm(), 1e-9) << k;
+    EXPECT_NEAR(taken.angle(), truth(k).angle(), 1e-9) << k;
+    if (k > k0) EXPECT_EQ(gate.restart(), "") << k;
+  }
+}
+
+// An encoder counter reset to zero while the wheels turn at 60 and 50 ticks a reading: a new
+// origin after the run, the angles going on from where they were.
+TEST(OdometryGate, EncoderTicksThatRestartFromZeroGoOnFromTheLastAngle) {
+  OdometryGate gate(OdometryLimits(), drive());
+  const double tick = 2 * M_PI / 4096;
+  const auto q = [&](int k, double from) { return Eigen::Vector2d((from + 60 * k) * tick, (from + 50 * k) * tick); };
+  for (int k = 0; k < 30; ++k) EXPECT_EQ(gate.wheelAngles(0.01 * k, q(k, 1e6).x(), q(k, 1e6).y()), "") << k;
+  int refused = 0;
+  for (int k = 30; k < 60; ++k) {
+    const Eigen::Vector2d raw = q(k, -60 * 30);  // the counter reads 0 at k = 30
+    refused += !gate.wheelAngles(0.01 * k, raw.x(), raw.y()).empty();
+    if (k >= 30 + OdometryGate::kRestartReadings - 1) {
+      EXPECT_LT((gate.asTaken(raw.x(), raw.y()) - q(k, 1e6)).norm(), 1e-6) << k;
+    }
+  }
+  EXPECT_EQ(refused, OdometryGate::kRestartReadings - 1);
+}
+
+// Faults that do not persist start no new origin: a spike of kRestartReadings - 1 readings, and
+// readings that jump about with no motion a robot could make between them.
+TEST(OdometryGate, FaultsThatDoNotPersistStartNoNewOrigin) {
+  OdometryGate gate(OdometryLimits(), drive());
+  const auto truth = [](int k) { return SE2(0.005 * k, 0, 0); };
+  int k = 0;
+  for (; k < 10; ++k) EXPECT_EQ(gate.pose(0.01 * k, truth(k)), "") << k;
+  for (int n = 0; n < OdometryGate::kRestartReadings - 1; ++n, ++k)
+    EXPECT_NE(gate.pose(0.01 * k, SE2(500.0, 0, 0) * truth(k)), "") << k;
+  EXPECT_EQ(gate.pose(0.01 * k, truth(k)), "");
+  EXPECT_EQ(gate.restart(), "");
+  ++k;
+  for (int n = 0; n < 20; ++n, ++k) {
+    EXPECT_NE(gate.pose(0.01 * k, SE2(100.0 * (n % 2 ? 1 : -1) * (n + 1), 0, 0)), "") << k;
+    EXPECT_EQ(gate.restart(), "");
+  }
+  EXPECT_EQ(gate.pose(0.01 * k, truth(k)), "");
+  const SE2 taken = gate.asTaken(truth(k));
+  EXPECT_EQ(taken.translation(), truth(k).translation());  // no correction: the reading as read
 }
 
 }  // namespace

@@ -345,6 +345,46 @@ TEST(Replay, FaultyRecordsAreSkippedNotBelieved) {
   fs::remove_all(dir);
 }
 
+// An odometry counter that jumps and goes on from there (the pose 1000 m off, the encoder ticks
+// +1e6 and -5e5 from the 150th reading on): the readings of the run before it agrees are skipped,
+// then it is taken as a new origin, said in one line and in the report; every frame stays right.
+TEST(Replay, AnOdometryJumpThatPersistsIsTakenAsANewOrigin) {
+  const fs::path dir = simulate("static", 4);
+  {
+    RawlogReader in((dir / "sequence.rawlog").string());
+    RawlogWriter out((dir / "restarted.rawlog").string());
+    int odometry = 0;
+    while (auto o = in.next()) {
+      if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(*o); od && ++odometry >= 150) {
+        od->odometry.x(od->odometry.x() + 1000.0);
+        od->encoderLeftTicks += 1000000;
+        od->encoderRightTicks -= 500000;
+      }
+      out.write(**o);
+    }
+  }
+  fs::create_directory_symlink(dir / "sequence_Images", dir / "restarted_Images");
+  std::ofstream(dir / "poses.yaml") << slurp(dir / "settings.yaml") << "Odometry.Input: \"pose\"\n";
+  const Trajectory gt = readTum((dir / "groundtruth.txt").string());
+  for (const std::string settings : {"settings.yaml", "poses.yaml"}) {
+    std::string out, err;
+    const int rc = replayRaw(
+        dir, settings,
+        "--deterministic --rawlog " + (dir / "restarted.rawlog").string() + " --out " + (dir / "t.txt").string(), &out,
+        &err);
+    ASSERT_EQ(rc, 0) << settings << ": " << err;
+    // OdometryGate::kRestartReadings - 1 readings skipped, then the restart.
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 5) << err;
+    EXPECT_NE(err.find("rvwo-replay: odometry restarted at t = "), std::string::npos) << err;
+    EXPECT_NE(out.find("  odometry restarts taken as a new origin: 1 (see stderr)\n"), std::string::npos) << out;
+    const Trajectory est = readTum((dir / "t.txt").string());
+    const auto pairs = associate(gt, est, 0.005);
+    EXPECT_EQ(pairs.size(), gt.size()) << settings;
+    EXPECT_LT(ate(gt, est, pairs, Alignment::kSE3).stats.max, 0.01) << settings;
+  }
+  fs::remove_all(dir);
+}
+
 // Label images of another size than the camera's are not looked up: each such keyframe is
 // counted and named; when none could use its labels the run is an error (its trajectory written).
 TEST(Replay, LabelImagesOfAnotherSizeAreNotUsed) {
