@@ -39,6 +39,7 @@
 #include "convert/lists.h"
 #include "convert/presets.h"
 #include "support/command_line.h"
+#include "support/image_file.h"
 #include "support/output.h"
 #include "support/rawlog.h"
 #include "support/trajectory.h"
@@ -55,8 +56,13 @@ using rvwo::apps::readOdometryCsv;
 using rvwo::apps::readOpenLorisOdometry;
 
 mrpt::obs::CObservation3DRangeScan rgbd(const Entry& rgb, const Entry& depth, double units_per_metre) {
-  const cv::Mat d = cv::imread(depth.path, cv::IMREAD_UNCHANGED);
-  if (d.empty() || d.type() != CV_16UC1) fail(depth.where, "'" + depth.path + "' is not a 16-bit depth image");
+  cv::Mat d;
+  try {
+    d = rvwo::apps::readImageFile(depth.path, cv::IMREAD_UNCHANGED);
+  } catch (const std::runtime_error& e) {
+    fail(depth.where, e.what());
+  }
+  if (d.type() != CV_16UC1) fail(depth.where, "'" + depth.path + "' is not a 16-bit depth image");
   mrpt::obs::CObservation3DRangeScan o;
   o.sensorLabel = "RGBD";
   o.timestamp = mrpt::Clock::fromDouble(rgb.t);

@@ -15,6 +15,8 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "image_file.h"
+
 namespace rvwo::apps {
 
 std::string RawlogWriter::imagesFolder(const std::string& rawlog_path) {
@@ -121,10 +123,7 @@ void requireImageFile(const mrpt::img::CImage& image) {
 cv::Mat loadImage(const mrpt::img::CImage& image, int flags) {
   if (image.isExternallyStored()) {
     requireImageFile(image);  // (first: OpenCV would print a warning of its own for a missing file)
-    const std::string path = image.getExternalStorageFileAbsolutePath();
-    cv::Mat m = cv::imread(path, flags);
-    if (m.empty()) throw std::runtime_error("cannot read image " + path);
-    return m;
+    return readImageFile(image.getExternalStorageFileAbsolutePath(), flags);
   }
   cv::Mat m = image.asCvMat<cv::Mat>(mrpt::img::SHALLOW_COPY);
   if (flags == cv::IMREAD_GRAYSCALE && m.channels() == 3) {

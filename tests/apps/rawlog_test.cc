@@ -321,6 +321,19 @@ TEST(Rawlog, ImagesLoadGreyWhenAskedWhereverTheyAreStored) {
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()), "cannot read image " + (dir / "none.png").string() + ": no such file");
   }
+  // An image cut short (a copy that stopped): refused in our words, before libpng sees it.
+  const std::string whole = rvwo::test::slurp(png);
+  std::ofstream(dir / "cut.png", std::ios::binary) << whole.substr(0, whole.size() / 2);
+  mrpt::img::CImage cut;
+  cut.setExternalStorage((dir / "cut.png").string());
+  try {
+    rvwo::apps::loadImage(cut, cv::IMREAD_GRAYSCALE);
+    FAIL() << "no error for an image cut short";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("cannot read image " + (dir / "cut.png").string() + ": a PNG cut short (", 0),
+              0u)
+        << e.what();
+  }
   // A rawlog moved without its images: the missing folder is named.
   mrpt::img::CImage moved;
   moved.setExternalStorage((dir / "moved_Images" / "L_000000.png").string());
