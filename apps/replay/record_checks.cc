@@ -134,6 +134,12 @@ std::pair<double, double> OdometryGate::motion(const Reading& a, const Reading& 
   return {std::max(std::fabs(v_l), std::fabs(v_r)), std::fabs(v_r - v_l) / drive_.track};
 }
 
+Eigen::Vector3d OdometryGate::rate(const Reading& a, const Reading& b) const {
+  const double dt = b.t - a.t;
+  if (poses_) return (a.pose.inverse() * b.pose).log() / dt;
+  return Eigen::Vector3d((b.q.x() - a.q.x()) / dt, (b.q.y() - a.q.y()) / dt, 0.0);
+}
+
 std::string OdometryGate::beyondLimits(double v, double omega, double dt, bool acceleration) const {
   if (!(v <= limits_.max_speed))
     return format("a speed of %.3g m/s over %.3g s (Odometry.MaxSpeed %g)", v, dt, limits_.max_speed);
@@ -155,8 +161,7 @@ std::string OdometryGate::judge(const Reading& b) {
   const auto [v, omega] = motion(*last_, b);
   const std::string why = beyondLimits(v, omega, dt, true);
   if (why.empty()) {
-    rate_ = poses_ ? Eigen::Vector3d((last_->pose.inverse() * b.pose).log() / dt)
-                   : Eigen::Vector3d((b.q.x() - last_->q.x()) / dt, (b.q.y() - last_->q.y()) / dt, 0.0);
+    rate_ = rate(*last_, b);
     last_ = b;
     last_v_ = v;
     run_.clear();
@@ -188,10 +193,7 @@ void OdometryGate::restartAt(const Reading& b) {
       "odometry restarted at t = %.6f: the %d readings from t = %.6f on agree among themselves but not "
       "with the one before (%s); taken as a new origin, the jump bridged at the speed before it",
       b.t, static_cast<int>(run_.size()), first.t, run_why_.c_str());
-  const Reading& before = run_[run_.size() - 2];
-  const double dt = b.t - before.t;
-  rate_ = poses_ ? Eigen::Vector3d((before.pose.inverse() * b.pose).log() / dt)
-                 : Eigen::Vector3d((b.q.x() - before.q.x()) / dt, (b.q.y() - before.q.y()) / dt, 0.0);
+  rate_ = rate(run_[run_.size() - 2], b);
   last_ = b;
   last_v_.reset();
   run_.clear();

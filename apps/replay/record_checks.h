@@ -88,6 +88,8 @@ class OdometryGate {
   };
   // v (m/s: the faster wheel's, or the body's) and omega (rad/s) from a to b.
   std::pair<double, double> motion(const Reading& a, const Reading& b) const;
+  // Per second from a to b: the twist, or the two wheel rates (rad/s; third entry 0).
+  Eigen::Vector3d rate(const Reading& a, const Reading& b) const;
   // Why a speed and turn rate over dt (and the change from the last speed taken) are beyond the
   // limits; "" within.
   std::string beyondLimits(double v, double omega, double dt, bool acceleration) const;

@@ -158,11 +158,15 @@ TEST(OdometryGate, APoseJumpThatPersistsBecomesANewOrigin) {
             0u)
       << gate.restart();
   for (int k = k0; k < 40; ++k) {
-    if (k > k0) EXPECT_EQ(gate.pose(0.01 * k, jump * truth(k)), "") << k;
+    if (k > k0) {
+      EXPECT_EQ(gate.pose(0.01 * k, jump * truth(k)), "") << k;
+    }
     const SE2 taken = gate.asTaken(jump * truth(k));
     EXPECT_LT((taken.translation() - truth(k).translation()).norm(), 1e-9) << k;
     EXPECT_NEAR(taken.angle(), truth(k).angle(), 1e-9) << k;
-    if (k > k0) EXPECT_EQ(gate.restart(), "") << k;
+    if (k > k0) {
+      EXPECT_EQ(gate.restart(), "") << k;
+    }
   }
 }
 
