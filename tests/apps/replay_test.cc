@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -24,6 +25,23 @@
 
 namespace rvwo::apps::test {
 namespace {
+
+// The simulated sequence in dir rewritten as <name>.rawlog, each record through edit first (it
+// may change the record), its images linked as <name>_Images unless link_images is false.
+fs::path rewritten(const fs::path& dir, const std::string& name,
+                   const std::function<void(mrpt::obs::CObservation::Ptr&)>& edit, bool link_images = true) {
+  const fs::path rawlog = dir / (name + ".rawlog");
+  {
+    RawlogReader in((dir / "sequence.rawlog").string());
+    RawlogWriter out(rawlog.string());
+    while (auto o = in.next()) {
+      edit(*o);
+      out.write(**o);
+    }
+  }
+  if (link_images) fs::create_directory_symlink(dir / "sequence_Images", dir / (name + "_Images"));
+  return rawlog;
+}
 
 // --realtime x feeds the records no sooner than the robot lived them, sped up x times: the report's
 // speed stays at or below x (sleeping guarantees a lower bound on the time, on any machine), the
@@ -168,15 +186,9 @@ TEST(Replay, MissingSensorsAreNamedWithWhatTheFileHas) {
 // (the test above).
 TEST(Replay, TheOnlySensorOfItsClassIsTakenUnderItsOwnLabel) {
   const fs::path dir = simulate("static", 2);
-  {
-    RawlogReader in((dir / "sequence.rawlog").string());
-    RawlogWriter out((dir / "wheels.rawlog").string());
-    while (auto o = in.next()) {
-      if ((*o)->sensorLabel == "ODOMETRY") (*o)->sensorLabel = "WHEELS";
-      out.write(**o);
-    }
-  }
-  fs::create_directory_symlink(dir / "sequence_Images", dir / "wheels_Images");
+  rewritten(dir, "wheels", [](mrpt::obs::CObservation::Ptr& o) {
+    if (o->sensorLabel == "ODOMETRY") o->sensorLabel = "WHEELS";
+  });
   std::string out, err;
   const std::string rawlog = (dir / "wheels.rawlog").string();
   ASSERT_EQ(replayRaw(dir, "settings.yaml", "--deterministic --rawlog " + rawlog + " --out " + (dir / "t.txt").string(),
@@ -221,15 +233,9 @@ TEST(Replay, TheOnlySensorOfItsClassIsTakenUnderItsOwnLabel) {
 // readings carry none) is an error, not a vision-only run.
 TEST(Replay, VwWithoutUsableOdometryIsAnError) {
   const fs::path dir = simulate("static", 2);
-  {
-    RawlogReader in((dir / "sequence.rawlog").string());
-    RawlogWriter out((dir / "noticks.rawlog").string());
-    while (auto o = in.next()) {
-      if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(*o)) od->hasEncodersInfo = false;
-      out.write(**o);
-    }
-  }
-  fs::create_directory_symlink(dir / "sequence_Images", dir / "noticks_Images");
+  rewritten(dir, "noticks", [](mrpt::obs::CObservation::Ptr& o) {
+    if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o)) od->hasEncodersInfo = false;
+  });
   const std::string rawlog = (dir / "noticks.rawlog").string();
   std::string out, err;
   const int rc = replayRaw(dir, "settings.yaml",
@@ -302,23 +308,17 @@ TEST(Replay, InterruptedWritesWhatItHasAndExitsWithTheSignal) {
 // skipped with a line naming it; every other frame keeps its pose, within 1 cm of the truth.
 TEST(Replay, FaultyRecordsAreSkippedNotBelieved) {
   const fs::path dir = simulate("static", 4);
-  {
-    RawlogReader in((dir / "sequence.rawlog").string());
-    RawlogWriter out((dir / "faulty.rawlog").string());
-    int frames = 0, odometry = 0;
-    while (auto o = in.next()) {
-      if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(*o)) {
-        ++odometry;
-        if (odometry == 100) od->odometry.x(od->odometry.x() + 1000.0);
-        if (odometry == 150) od->encoderLeftTicks += 1000000;
-        if (odometry == 200) od->encoderRightTicks -= 5000;
-      } else if ((*o)->sensorLabel == "CAMERA" && ++frames == 40) {
-        (*o)->timestamp = mrpt::Clock::fromDouble(1.8e12);
-      }
-      out.write(**o);
+  int frames = 0, odometry = 0;
+  rewritten(dir, "faulty", [&](mrpt::obs::CObservation::Ptr& o) {
+    if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o)) {
+      ++odometry;
+      if (odometry == 100) od->odometry.x(od->odometry.x() + 1000.0);
+      if (odometry == 150) od->encoderLeftTicks += 1000000;
+      if (odometry == 200) od->encoderRightTicks -= 5000;
+    } else if (o->sensorLabel == "CAMERA" && ++frames == 40) {
+      o->timestamp = mrpt::Clock::fromDouble(1.8e12);
     }
-  }
-  fs::create_directory_symlink(dir / "sequence_Images", dir / "faulty_Images");
+  });
   std::ofstream(dir / "poses.yaml") << slurp(dir / "settings.yaml") << "Odometry.Input: \"pose\"\n";
   const Trajectory gt = readTum((dir / "groundtruth.txt").string());
   for (const std::string settings : {"settings.yaml", "poses.yaml"}) {
@@ -350,20 +350,14 @@ TEST(Replay, FaultyRecordsAreSkippedNotBelieved) {
 // then it is taken as a new origin, said in one line and in the report; every frame stays right.
 TEST(Replay, AnOdometryJumpThatPersistsIsTakenAsANewOrigin) {
   const fs::path dir = simulate("static", 4);
-  {
-    RawlogReader in((dir / "sequence.rawlog").string());
-    RawlogWriter out((dir / "restarted.rawlog").string());
-    int odometry = 0;
-    while (auto o = in.next()) {
-      if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(*o); od && ++odometry >= 150) {
-        od->odometry.x(od->odometry.x() + 1000.0);
-        od->encoderLeftTicks += 1000000;
-        od->encoderRightTicks -= 500000;
-      }
-      out.write(**o);
+  int odometry = 0;
+  rewritten(dir, "restarted", [&](mrpt::obs::CObservation::Ptr& o) {
+    if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o); od && ++odometry >= 150) {
+      od->odometry.x(od->odometry.x() + 1000.0);
+      od->encoderLeftTicks += 1000000;
+      od->encoderRightTicks -= 500000;
     }
-  }
-  fs::create_directory_symlink(dir / "sequence_Images", dir / "restarted_Images");
+  });
   std::ofstream(dir / "poses.yaml") << slurp(dir / "settings.yaml") << "Odometry.Input: \"pose\"\n";
   const Trajectory gt = readTum((dir / "groundtruth.txt").string());
   for (const std::string settings : {"settings.yaml", "poses.yaml"}) {
@@ -390,19 +384,15 @@ TEST(Replay, AnOdometryJumpThatPersistsIsTakenAsANewOrigin) {
 TEST(Replay, LabelImagesOfAnotherSizeAreNotUsed) {
   const fs::path dir = simulate("static", 3);
   for (const std::string name : {"small", "some_small"}) {
-    RawlogReader in((dir / "sequence.rawlog").string());
-    RawlogWriter out((dir / (name + ".rawlog")).string());
     int labels = 0;
-    while (auto o = in.next()) {
-      auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(*o);
+    rewritten(dir, name, [&](mrpt::obs::CObservation::Ptr& o) {
+      auto im = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(o);
       if (im && im->sensorLabel == "LABELS" && (name == "small" || ++labels % 2 == 0)) {
         cv::Mat half;
         cv::resize(loadImage(im->image, cv::IMREAD_UNCHANGED), half, cv::Size(), 0.5, 0.5, cv::INTER_NEAREST);
         im->image = mrpt::img::CImage(half, mrpt::img::DEEP_COPY);
       }
-      out.write(**o);
-    }
-    fs::create_directory_symlink(dir / "sequence_Images", dir / (name + "_Images"));
+    });
   }
   std::string out, err;
   const std::string traj = (dir / "t.txt").string();
@@ -443,18 +433,14 @@ TEST(Replay, BadInputGetsOneClearLine) {
   }
   // Odometry going backwards (NaN: tests/plugins/estimator_test.cc): the record are skipped with a line each, the rest
   // runs.
-  {
-    RawlogReader in((dir / "sequence.rawlog").string());
-    RawlogWriter out((dir / "bad_odometry.rawlog").string());
-    int odometry = 0;
-    while (auto o = in.next()) {
-      if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(*o)) {
-        ++odometry;
-        if (odometry == 50) od->timestamp = mrpt::Clock::fromDouble(0.1);  // backwards
-      }
-      out.write(**o);
-    }
-  }
+  int odometry = 0;
+  rewritten(
+      dir, "bad_odometry",
+      [&](mrpt::obs::CObservation::Ptr& o) {
+        if (std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o) && ++odometry == 50)
+          o->timestamp = mrpt::Clock::fromDouble(0.1);  // backwards
+      },
+      false);
   fs::copy(dir / "sequence_Images", dir / "bad_odometry_Images", fs::copy_options::recursive);
   const std::string base = std::string(RVWO_REPLAY) + " --quiet --settings " + (dir / "settings.yaml").string() +
                            " --deterministic --out " + (dir / "y.txt").string() + " --rawlog ";
