@@ -133,7 +133,8 @@ inline std::vector<PolicyScene> policyScenes() {
     s.landmarks = roomAhead(400, 2);
     s.calls = {1.0, 1.7, 12, 0.02};
     // The estimator calls no slip: vision alone places no more landmarks than the pose with the
-    // wheel edge (every one, without pixel noise), and it has no drift test on stereo. The plugin's
+    // wheel edge (every one, without pixel noise), and without labels (these scenes have none) it
+    // runs no drift test on stereo (docs/decisions/0011). The plugin's
     // creep test calls it from the second frame, and for 0.2 s after the robot drove on (the
     // track's recent part, kCreepRecent, still holds the stop).
     s.estimator = PolicyCalls{1.0, 1.7, 0, 0.02};
@@ -150,7 +151,8 @@ inline std::vector<PolicyScene> policyScenes() {
     s.claimed = gentleDrive;
     s.landmarks = roomAhead(400, 6);
     s.calls = {1.0, 2.3, 10, 0.02};
-    // The estimator calls no slip: it runs no drift test on stereo, and each frame's claim fits.
+    // The estimator calls no slip: without labels it runs no drift test on stereo, and each
+    // frame's claim fits.
     s.estimator = PolicyCalls{1.0, 2.3, 0, 0.02};
     scenes.push_back(s);
   }

@@ -92,6 +92,21 @@ TEST_P(EstimatorPolicy, DecidesAsTheSceneSays) {
   rvwo::test::expectCalls(GetParam(), rvwo::test::PolicyHost::kEstimator, replay(GetParam()));
 }
 
+// The creep test trusts vision alone's track, which only labels, heeded by the adaptive kernel,
+// keep off walkers: without labels (the scenes above) or with Huber the estimator leaves the
+// creep to the slip test, and mono has its stall test.
+TEST(EstimatorPolicyOptions, TheCreepTestRunsWithLabelsAndTheAdaptiveKernel) {
+  Rig rig = rigOf(PolicyRig());
+  EstimatorOptions opt;
+  EXPECT_EQ(Tracker::arbiterOptions(rig, opt, true).drift, rvwo::DriftTest::kCreep);
+  EXPECT_EQ(Tracker::arbiterOptions(rig, opt, false).drift, rvwo::DriftTest::kNone);
+  opt.kernel = KernelChoice::kHuber;
+  EXPECT_EQ(Tracker::arbiterOptions(rig, opt, true).drift, rvwo::DriftTest::kNone);
+  opt.kernel = KernelChoice::kAdaptive;
+  rig.sensor = Sensor::kMono;
+  EXPECT_EQ(Tracker::arbiterOptions(rig, opt, true).drift, rvwo::DriftTest::kStall);
+}
+
 INSTANTIATE_TEST_SUITE_P(Scenes, EstimatorPolicy, ::testing::ValuesIn(rvwo::test::policyScenes()),
                          [](const ::testing::TestParamInfo<PolicyScene>& i) { return i.param.name; });
 

@@ -51,6 +51,7 @@ class Mapper {
 
   std::size_t wheelOutliers() const { return wheel_outliers_; }  // wheel edges local BA found wrong
   const AsyncSegmenter* asyncSegmenter() const { return async_.get(); }
+  bool labelled() const { return segmenter_ != nullptr; }  // keyframes get labels (semantics on, a segmenter)
 
  private:
   void mappingLoop();

@@ -30,6 +30,10 @@ class Tracker {
   std::size_t slipFrames() const { return slip_frames_; }  // frames where vision overruled the wheels
   void setCallback(std::function<void(const PoseEstimate&)> callback) { callback_ = std::move(callback); }
 
+  // The frame arbiter's preset for the rig, with what the options set (its bars, the kernel's
+  // wheel gate) and the creep test where keyframes get labels.
+  static ArbiterOptions arbiterOptions(const Rig& r, const EstimatorOptions& o, bool labelled);
+
  private:
   // One frame's tracking as it goes through the steps of processFrame.
   struct FrameWork {
@@ -60,7 +64,6 @@ class Tracker {
   // The wheels against vision for this frame (rvwo::FrameArbiter): the pose solved with the wheel
   // edge, a slip (vision alone overrules them), a stall (mono), the wheel gate (docs/decisions/0002).
   FrameEvidence frameEvidence(const FrameWork& w);
-  static ArbiterOptions arbiterOptions(const Rig& r, const EstimatorOptions& o);
   // A slip frame: counted and marked for local BA (a spin's wheel edge sits out its first round).
   void recordSlip(double t, bool spin);
 

@@ -26,7 +26,7 @@ namespace rvwo {
 // frame's claim fits (vision alone is then solved every frame).
 enum class DriftTest {
   kNone,
-  kCreep,  // wheelsCreep over the last kCreepStretch (stereo, RGB-D: the ORB-SLAM3 plugin)
+  kCreep,  // wheelsCreep over the last kCreepStretch (stereo, RGB-D: the plugin; the estimator with labels)
   kStall,  // wheelsStall over the last kStallStretch, kStallFrames in a row (mono: the estimator)
 };
 
@@ -40,7 +40,7 @@ struct ArbiterOptions {
   bool check_slip = true;              // vision alone may overrule the wheels (Tracking.SlipCheck)
   bool judge_every_frame = false;      // judge the slip every frame, not only where worth checking (plugin true)
   bool bound_miss_after_slip = true;   // after a slip, vision alone misses the claim by a skid at most (plugin false)
-  DriftTest drift = DriftTest::kNone;  // estimator: kStall for mono; plugin: kCreep
+  DriftTest drift = DriftTest::kNone;  // estimator: kStall for mono (its host sets kCreep with labels); plugin: kCreep
   bool wheel_gate = true;              // the wheel gate (Tracking.WheelGate; adaptive kernel, depth)
   double hold = 2.0;                   // s a blind frame after a slip holds the pose (Tracking.SlipHold)
   int hold_min_frames = 3;             // slip frames in a row before a hold (Tracking.SlipHoldMinFrames)
