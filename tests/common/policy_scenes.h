@@ -134,9 +134,9 @@ inline std::vector<PolicyScene> policyScenes() {
     s.calls = {1.0, 1.7, 12, 0.02};
     // The estimator calls no slip: vision alone places no more landmarks than the pose with the
     // wheel edge (every one, without pixel noise), and without labels (these scenes have none) it
-    // runs no drift test on stereo (docs/decisions/0011). The plugin's
-    // creep test calls it from the second frame, and for 0.2 s after the robot drove on (the
-    // track's recent part, kCreepRecent, still holds the stop).
+    // runs no drift test on stereo (docs/decisions/0011). The plugin's creep test calls it from
+    // the second frame, and for 0.2 s after the robot drove on (the track's recent part,
+    // kCreepRecent, still holds the stop).
     s.estimator = PolicyCalls{1.0, 1.7, 0, 0.02};
     s.orbslam3 = PolicyCalls{1.0, 1.85, 12, 0.02};
     scenes.push_back(s);

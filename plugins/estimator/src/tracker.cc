@@ -120,9 +120,8 @@ ArbiterOptions Tracker::arbiterOptions(const Rig& r, const EstimatorOptions& o, 
   ArbiterOptions a = ArbiterOptions::estimator(r.sensor == Sensor::kMono).apply(o.tracking);
   a.wheel_gate = a.wheel_gate && o.kernel == KernelChoice::kAdaptive;
   // One frame of stereo or depth may explain a robot standing while its wheels turn on as well as
-  // the wheels' claim (RGB-D: as many landmarks either way, 3 cm apart); half a second of vision
-  // alone's own track tells them apart, a track only labels (with the adaptive kernel, which
-  // heeds them) keep off the walkers (docs/decisions/0011).
+  // the wheels' claim; half a second of vision alone's own track tells them apart, a track only
+  // labels (with the adaptive kernel, which heeds them) keep off the walkers (docs/decisions/0011).
   if (a.drift == DriftTest::kNone && o.kernel == KernelChoice::kAdaptive && labelled) a.drift = DriftTest::kCreep;
   a.pose.huber = o.kernel == KernelChoice::kHuber;
   return a;
