@@ -46,7 +46,7 @@ struct PolicyCalls {
   int max_blind = 0;        // frames the wheels alone may place
 };
 
-enum class PolicyHost { kEstimator, kOrbSlam3 };
+enum class PolicyHost { kEstimator, kEstimatorLabelled, kOrbSlam3 };
 
 struct PolicyScene {
   std::string name;
@@ -59,10 +59,12 @@ struct PolicyScene {
   double dark_from = 1e9, dark_to = -1e9;  // s: the camera sees nothing in [dark_from, dark_to)
   PolicyCalls calls;                       // both hosts'
   // Where a host still decides otherwise: a difference to remove, each named in
-  // docs/decisions/0016 (one policy, then one value here).
-  std::optional<PolicyCalls> estimator, orbslam3;
+  // docs/decisions/0016 (one policy, then one value here). estimator_unlabelled: the estimator's
+  // run without labels, where it runs no drift test on stereo (docs/decisions/0011).
+  std::optional<PolicyCalls> estimator, estimator_unlabelled, orbslam3;
   const PolicyCalls& callsOf(PolicyHost h) const {
-    const std::optional<PolicyCalls>& own = h == PolicyHost::kEstimator ? estimator : orbslam3;
+    if (h == PolicyHost::kEstimator && estimator_unlabelled) return *estimator_unlabelled;
+    const std::optional<PolicyCalls>& own = h == PolicyHost::kOrbSlam3 ? orbslam3 : estimator;
     return own ? *own : calls;
   }
 
@@ -131,14 +133,12 @@ inline std::vector<PolicyScene> policyScenes() {
       return at_stop * SE2(0.36, 0, 0) * gentleDrive(1.0).inverse() * gentleDrive(t - 0.6);
     };
     s.landmarks = roomAhead(400, 2);
-    s.calls = {1.0, 1.7, 12, 0.02};
-    // The estimator calls no slip: vision alone places no more landmarks than the pose with the
-    // wheel edge (every one, without pixel noise), and without labels (these scenes have none) it
-    // runs no drift test on stereo (docs/decisions/0011). The plugin's creep test calls it from
-    // the second frame, and for 0.2 s after the robot drove on (the track's recent part,
-    // kCreepRecent, still holds the stop).
-    s.estimator = PolicyCalls{1.0, 1.7, 0, 0.02};
-    s.orbslam3 = PolicyCalls{1.0, 1.85, 12, 0.02};
+    // The creep test calls it from the second frame, and for 0.2 s after the robot drove on (the
+    // track's recent part, kCreepRecent, still holds the stop).
+    s.calls = {1.0, 1.85, 12, 0.02};
+    // Without labels the estimator calls no slip: vision alone places no more landmarks than the
+    // pose with the wheel edge (every one, without pixel noise), and it runs no drift test.
+    s.estimator_unlabelled = PolicyCalls{1.0, 1.85, 0, 0.02};
     scenes.push_back(s);
   }
   {
@@ -151,9 +151,9 @@ inline std::vector<PolicyScene> policyScenes() {
     s.claimed = gentleDrive;
     s.landmarks = roomAhead(400, 6);
     s.calls = {1.0, 2.3, 10, 0.02};
-    // The estimator calls no slip: without labels it runs no drift test on stereo, and each
-    // frame's claim fits.
-    s.estimator = PolicyCalls{1.0, 2.3, 0, 0.02};
+    // Without labels the estimator calls no slip: it runs no drift test, and each frame's claim
+    // fits.
+    s.estimator_unlabelled = PolicyCalls{1.0, 2.3, 0, 0.02};
     scenes.push_back(s);
   }
   {

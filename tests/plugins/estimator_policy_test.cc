@@ -41,8 +41,22 @@ cv::Mat descriptors(int n) {
   return d;
 }
 
+// A network that finds nobody: every pixel background. It makes a run labelled (the keyframes are
+// segmented) without labelling the scenes' walkers, as a network that misses them would.
+class LabelsNothing final : public rvwo::Segmenter {
+ public:
+  rvwo::Segmentation segment(const cv::Mat& image, const rvwo::FrameInfo&) override {
+    return {cv::Mat::zeros(image.size(), CV_32S), cv::Mat()};
+  }
+  const std::vector<std::string>& classNames() const override { return names_; }
+
+ private:
+  std::vector<std::string> names_{"background"};
+};
+
 FrameFeatures featuresAt(const PolicyScene& s, const PolicyRig& r, double t, const cv::Mat& descriptors) {
   FrameFeatures out;
+  out.raw_image = cv::Mat(r.height, r.width, CV_8U, cv::Scalar(128));  // for the segmenter
   Features& f = out.f;
   for (const rvwo::test::Sighting& g : s.sightings(r, t)) {
     f.keypoints.emplace_back(static_cast<float>(g.u), static_cast<float>(g.v), 31.f, -1.f, 100.f, 0);
@@ -54,15 +68,16 @@ FrameFeatures featuresAt(const PolicyScene& s, const PolicyRig& r, double t, con
   return out;
 }
 
-rvwo::test::PolicyOutcome replay(const PolicyScene& s) {
+// labelled: semantics on, keyframes segmented by LabelsNothing; otherwise no semantics.
+rvwo::test::PolicyOutcome replay(const PolicyScene& s, bool labelled) {
   const PolicyRig pr;
   EstimatorOptions opt;
   opt.deterministic = true;
-  opt.semantics = false;
+  opt.semantics = labelled;
   Context ctx(rigOf(pr), opt);
   Wheels wheels(ctx);
   Map map(ctx, false);
-  Mapper mapper(ctx, map, wheels, nullptr);
+  Mapper mapper(ctx, map, wheels, labelled ? std::make_shared<LabelsNothing>() : nullptr);
   const FrontEnd front_end(ctx);
   Tracker tracker(ctx, map, wheels, mapper, front_end);
   const cv::Mat d = descriptors(s.size());
@@ -78,6 +93,7 @@ rvwo::test::PolicyOutcome replay(const PolicyScene& s) {
   }
   rvwo::test::PolicyOutcome o;
   std::lock_guard<std::mutex> lock(map.mutex);
+  EXPECT_EQ(map.counters.segmented_keyframes > 0, labelled) << "keyframes segmented only with labels";
   for (const FrameRecord& f : map.frames) {
     if (f.slip) o.slip_t.push_back(f.t);
     o.blind += !f.visual;
@@ -89,7 +105,12 @@ rvwo::test::PolicyOutcome replay(const PolicyScene& s) {
 class EstimatorPolicy : public ::testing::TestWithParam<PolicyScene> {};
 
 TEST_P(EstimatorPolicy, DecidesAsTheSceneSays) {
-  rvwo::test::expectCalls(GetParam(), rvwo::test::PolicyHost::kEstimator, replay(GetParam()));
+  rvwo::test::expectCalls(GetParam(), rvwo::test::PolicyHost::kEstimator, replay(GetParam(), false));
+}
+
+// With labels (none of which marks a walker) the estimator runs the creep test, as the plugin does.
+TEST_P(EstimatorPolicy, DecidesAsTheSceneSaysWithLabels) {
+  rvwo::test::expectCalls(GetParam(), rvwo::test::PolicyHost::kEstimatorLabelled, replay(GetParam(), true));
 }
 
 // The creep test trusts vision alone's track, which only labels, heeded by the adaptive kernel,
