@@ -1,19 +1,21 @@
 #!/usr/bin/env bash
-# Fuzzes RVWO's readers (tests/fuzz: rawlog, settings, trajectory, rvwo-convert's folder lists)
-# with libFuzzer under ASan and UBSan: a clang build of the fuzz targets in build-fuzz/, then each
-# target for RVWO_FUZZ_SECONDS (60) from its regression corpus (tests/fuzz/regressions/<target>/)
-# and seeds the simulator makes (build/'s rvwo-sim, when built). Prints the runs per target; exits 1
+# Fuzzes RVWO's readers (tests/fuzz: rawlog, settings, trajectory, rvwo-convert's folder lists,
+# image files) with libFuzzer under ASan and UBSan: a clang build of the fuzz targets in build-fuzz/,
+# then each target for RVWO_FUZZ_SECONDS (60) from its regression corpus
+# (tests/fuzz/regressions/<target>/) and seeds the simulator makes (build/'s rvwo-sim, when built),
+# with libFuzzer's seed RVWO_FUZZ_SEED (1). Prints the runs per target; exits 1
 # on a crash, whose input is kept in build-fuzz/crashes/<target>/ (once fixed, add it to the
 # regression corpus).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
 SECONDS_EACH=${RVWO_FUZZ_SECONDS:-60}
+SEED=${RVWO_FUZZ_SEED:-1}
 OUT=build-fuzz
 CC=clang CXX=clang++ cmake -S . -B "$OUT" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRVWO_FUZZ=ON \
   -DRVWO_SANITIZE=address,undefined -DRVWO_BUILD_BENCHMARKS=OFF -DRVWO_WITH_G2O=OFF \
   >"$OUT-configure.log" 2>&1 || { cat "$OUT-configure.log"; exit 1; }
-cmake --build "$OUT" --target fuzz_rawlog fuzz_settings fuzz_trajectory fuzz_convert
+cmake --build "$OUT" --target fuzz_rawlog fuzz_settings fuzz_trajectory fuzz_convert fuzz_image
 
 seeds="$OUT/seeds"
 rm -rf "$seeds"
@@ -21,7 +23,7 @@ if [ -x build/apps/rvwo-sim ]; then
   build/apps/rvwo-sim --quiet --scenario scenarios/static.yaml --out "$seeds" --seed 7 --duration 0.5 >/dev/null
 fi
 status=0
-for target in rawlog settings trajectory convert; do
+for target in rawlog settings trajectory convert image; do
   corpus="$OUT/corpus/$target" crashes="$OUT/crashes/$target"
   rm -rf "$crashes"
   mkdir -p "$corpus" "$crashes"
@@ -39,7 +41,7 @@ for target in rawlog settings trajectory convert; do
   # other failure is a finding.
   # MRPT and OpenCV keep allocations for the process's life: leaks are not what is looked for here.
   ASAN_OPTIONS=detect_leaks=0:quarantine_size_mb=16 "$OUT/tests/fuzz/fuzz_$target" -fork=1 -ignore_ooms=1 \
-    -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=512 \
+    -seed="$SEED" -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=512 \
     -artifact_prefix="$crashes/" "$corpus" >"$log" 2>&1 || true
   runs=$(grep -o '^#[0-9]*' "$log" | tail -1 | tr -d '#')
   known=0 found=0
