@@ -31,6 +31,7 @@
 #include "sim/camera_effects.h"
 #include "sim/odometry.h"
 #include "sim/people.h"
+#include "sim/randomise.h"
 #include "sim/scenario.h"
 #include "sim/scene.h"
 #include "support/command_line.h"
@@ -43,14 +44,17 @@ using rvwo::SE2;
 namespace {
 
 // The simulated camera rig: a ZED2-like stereo pair (or one camera) 0.25 m ahead of the base,
-// 0.4 m up, looking forward, pitched down by 5 degrees.
+// 0.4 m up, looking forward, pitched down by 5 degrees; focal length and baseline as the
+// scenario says.
 struct Rig {
   int width = 640, height = 480;
   double fx = 400, fy = 400, cx = 319.5, cy = 239.5, baseline = 0.12;
   double k[4] = {0.0, 0.0, 0.0, 0.0};  // Kannala-Brandt, fisheye only
   Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_c1_c2 = Eigen::Isometry3d::Identity();  // the right camera in the left's frame
-  Rig(bool fisheye) {
+  explicit Rig(const rvwo::sim::Scenario& sc) {
+    const bool fisheye = sc.lens == "fisheye";
+    baseline = sc.baseline;
     T_c1_c2.translation().x() = baseline;
     Eigen::Matrix3d R_b_c;
     R_b_c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
@@ -72,6 +76,7 @@ struct Rig {
                           Eigen::AngleAxisd(-0.3 * M_PI / 180, Eigen::Vector3d::UnitX()))
                              .toRotationMatrix();
     }
+    if (sc.focal > 0) fx = fy = sc.focal;
   }
 };
 
@@ -110,7 +115,10 @@ struct SimArgs {
       "odometry, walkers, slip, blackouts, low texture, illumination changes, floor bumps) into an MRPT rawlog with "
       "settings and ground truth. The scenario format is in docs/simulator.md.",
       ' ', RVWO_VERSION};
-  TCLAP::ValueArg<std::string> scenario{"", "scenario", "the scenario YAML", true, "", "S.yaml", cmd};
+  TCLAP::ValueArg<std::string> scenario{"", "scenario", "the scenario YAML", false, "", "S.yaml"};
+  TCLAP::SwitchArg randomise{"", "randomise",
+                             "instead of a scenario: one drawn from the seed (motion, speed, room, camera, walkers, "
+                             "events; 60 s or the motion's length); --camera picks the kind (stereo)"};
   TCLAP::ValueArg<std::string> out{"",    "out", "output folder (created; existing outputs are replaced)", true, "",
                                    "DIR", cmd};
   TCLAP::ValueArg<unsigned> seed{"", "seed", "random seed: textures, walkers, noise (default 1)", false, 1, "N", cmd};
@@ -121,25 +129,38 @@ struct SimArgs {
   TCLAP::ValueArg<double> duration{"",  "duration", "override the scenario's duration, s (e.g. a short test)", false, 0,
                                    "s", cmd};
   TCLAP::SwitchArg quiet{"", "quiet", "no progress line", cmd};
+  SimArgs() { cmd.xorAdd(scenario, randomise); }
 };
 
 // The scenario file with the command line's overrides, checked again with them.
 rvwo::sim::Scenario scenarioOf(SimArgs& args) {
-  rvwo::sim::Scenario sc = rvwo::sim::loadScenario(args.scenario.getValue());
-  if (!args.camera.getValue().empty()) {
+  const bool drawn = args.randomise.getValue();  // --camera, --lens and --duration are then drawn with
+  const std::string source = drawn ? "rvwo-sim --randomise" : args.scenario.getValue();
+  rvwo::sim::Scenario sc;
+  if (drawn) {
+    const std::string camera = args.camera.getValue().empty() ? "stereo" : args.camera.getValue();
+    const double duration = args.duration.isSet() ? args.duration.getValue() : 60;
+    sc = rvwo::sim::parseScenario(rvwo::sim::randomScenario(args.seed.getValue(), camera, args.lens.getValue(),
+                                                            duration, rvwo::sim::motionFolder()),
+                                  source, ".");
+    sc.name = "randomised";
+  } else {
+    sc = rvwo::sim::loadScenario(args.scenario.getValue());
+  }
+  if (!drawn && !args.camera.getValue().empty()) {
     sc.camera = args.camera.getValue();
     sc.text += "# rvwo-sim --camera " + sc.camera + "\n";
   }
-  if (!args.lens.getValue().empty()) {
+  if (!drawn && !args.lens.getValue().empty()) {
     sc.lens = args.lens.getValue();
     sc.text += "# rvwo-sim --lens " + sc.lens + "\n";
   }
-  if (args.duration.isSet()) {
+  if (!drawn && args.duration.isSet()) {
     sc.duration = args.duration.getValue();
     sc.text += "# rvwo-sim --duration " + std::to_string(sc.duration) + "\n";
   }
   // The overrides pass the scenario's own checks (e.g. --camera stereo on a fisheye scenario).
-  rvwo::sim::validateScenario(sc, args.scenario.getValue() + " with the command-line overrides");
+  rvwo::sim::validateScenario(sc, source + " with the command-line overrides");
   return sc;
 }
 
@@ -160,7 +181,7 @@ class SimApp {
         duration_(std::min(sc.duration, motion_.duration())),
         stereo_(sc.camera == "stereo"),
         rgbd_(sc.camera == "rgbd"),
-        rig_(sc.lens == "fisheye"),
+        rig_(sc),
         quiet_(quiet),
         tty_(isatty(fileno(stderr))),
         dir_(dir),

@@ -75,10 +75,16 @@ void readEffects(const cv::FileStorage& fs, const std::string& path, Scenario* s
 Scenario loadScenario(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": scenario not found");
-  Scenario s;
   std::stringstream text;
   text << in.rdbuf();
-  s.text = text.str();
+  Scenario s = parseScenario(text.str(), path, std::filesystem::path(path).parent_path().string());
+  s.name = std::filesystem::path(path).stem().string();
+  return s;
+}
+
+Scenario parseScenario(const std::string& text, const std::string& path, const std::string& folder) {
+  Scenario s;
+  s.text = text;
   cv::FileStorage fs;
   try {
     fs.open(s.text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
@@ -97,7 +103,7 @@ Scenario loadScenario(const std::string& path) {
     if (!n.isString()) throw std::runtime_error(path + ": " + key + ": expected a string");
     v = static_cast<std::string>(n);
   };
-  s.name = std::filesystem::path(path).stem().string();
+  s.name = path;
   num("Sequence.Duration", s.duration);
   str("Sequence.Camera", s.camera);
   str("Sequence.Lens", s.lens);
@@ -105,6 +111,9 @@ Scenario loadScenario(const std::string& path) {
   num("Sequence.PixelNoise", s.camera_effects.read_noise);
   str("Sequence.Motion", s.motion);
   str("Sequence.MotionFile", s.motion_file);
+  num("Sequence.MotionSpeed", s.motion_speed);
+  num("Camera.Fx", s.focal);
+  num("Camera.Baseline", s.baseline);
   integer("Sequence.MotionBlock", s.motion_block);
   num("Sequence.LoopSpeed", s.loop_speed);
   num("Room.SizeX", s.room_x);
@@ -128,7 +137,7 @@ Scenario loadScenario(const std::string& path) {
   s.illumination = intervals(fs["Events.Illumination"], "Events.Illumination", path, 2, true);
   validateScenario(s, path);
   if (s.motion == "file" && std::filesystem::path(s.motion_file).is_relative()) {
-    s.motion_file = (std::filesystem::path(path).parent_path() / s.motion_file).string();
+    s.motion_file = (std::filesystem::path(folder) / s.motion_file).string();
   }
   return s;
 }
@@ -142,6 +151,10 @@ void validateScenario(const Scenario& s, const std::string& source) {
   check(s.lens == "pinhole" || s.lens == "fisheye", "Sequence.Lens", "pinhole or fisheye");
   check(s.lens == "pinhole" || s.camera != "rgbd", "Sequence.Lens", "fisheye is simulated for mono and stereo");
   check(s.fps > 0 && s.fps <= 120, "Sequence.Fps", "must be in (0, 120]");
+  check(s.focal == 0 || (s.focal >= 100 && s.focal <= 2000), "Camera.Fx",
+        "must be 0 (the lens's own) or in [100, 2000] px");
+  check(s.baseline >= 0.02 && s.baseline <= 1, "Camera.Baseline", "must be in [0.02, 1] m");
+  check(s.motion_speed >= 0.25 && s.motion_speed <= 4, "Sequence.MotionSpeed", "must be in [0.25, 4]");
   const CameraEffects& c = s.camera_effects;
   check(c.read_noise >= 0 && c.read_noise <= 50, "Sequence.PixelNoise", "must be in [0, 50] grey levels");
   check(c.exposure >= 0 && c.exposure <= 1 / s.fps, "Camera.Exposure", "must be in [0, 1 / Sequence.Fps] s");
@@ -218,7 +231,8 @@ Motion::Motion(const Scenario& s) {
     const double t0 = traj.front().t;
     SE2 previous_row;
     for (const auto& p : traj) {
-      if (p.t - t0 > s.duration + 1e-9) break;
+      const double t = (p.t - t0) / s.motion_speed;
+      if (t > s.duration + 1e-9) break;
       const Eigen::Vector3d x = R_p_w * (p.T.translation() - mean);
       const Eigen::Vector3d h = R_p_w * p.T.linear() * axes[best];
       const SE2 row(x.x(), x.y(), std::atan2(h.y(), h.x()));
@@ -228,7 +242,7 @@ Motion::Motion(const Scenario& s) {
         const Eigen::Vector3d xi = previous_row.between(row).log();
         pose_.push_back(pose_.back() * SE2::exp(Eigen::Vector3d(xi.x(), 0.0, xi.z())));
       }
-      t_.push_back(p.t - t0);
+      t_.push_back(t);
       previous_row = row;
     }
   }

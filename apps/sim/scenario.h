@@ -24,7 +24,10 @@ struct Scenario {
   std::string camera = "stereo";  // stereo | rgbd | mono
   std::string lens = "pinhole";   // pinhole | fisheye
   double fps = 30;
+  double focal = 0;             // px (Camera.Fx); 0: the lens's own, 400 pinhole, 286 fisheye
+  double baseline = 0.12;       // m (Camera.Baseline): the stereo pair's
   std::string motion = "loop";  // loop | file
+  double motion_speed = 1;      // a motion file played this many times as fast (Sequence.MotionSpeed)
   std::string motion_file;      // TUM rows; OpenLORIS "seq:" blocks; TUM Pioneer (tilted plane fitted away)
   int motion_block = 1;
   double loop_speed = 0.5;                       // m/s
@@ -48,6 +51,9 @@ struct Scenario {
 
 // Throws std::runtime_error "<file>: <key>: <what>".
 Scenario loadScenario(const std::string& path);
+// The same from a scenario's text; source names it in messages, and a relative motion file is
+// found in folder.
+Scenario parseScenario(const std::string& text, const std::string& source, const std::string& folder);
 // The checks loadScenario applies, for a scenario changed afterwards (command-line overrides);
 // source names it in the message.
 void validateScenario(const Scenario& s, const std::string& source);

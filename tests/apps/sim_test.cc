@@ -8,11 +8,13 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgproc.hpp>
+#include <set>
 
 #include "../common/temp.h"
 #include "rvwo/settings/settings.h"
 #include "sim/odometry.h"
 #include "sim/people.h"
+#include "sim/randomise.h"
 #include "sim/scenario.h"
 #include "sim/scene.h"
 
@@ -262,6 +264,9 @@ TEST(Simulator, ScenarioErrorsNameFileAndKey) {
   expectError("Depth.Misregistration: [1.0]\n", "Depth.Misregistration: expected [x, y] in pixels");
   expectError("Depth.MaxIncidence: 0\n", "Depth.MaxIncidence: must be in (0, 90] degrees");
   expectError("Walkers.Look: \"robots\"\n", "Walkers.Look: people or cylinders");
+  expectError("Camera.Fx: 50\n", "Camera.Fx: must be 0 (the lens's own) or in [100, 2000] px");
+  expectError("Camera.Baseline: 0\n", "Camera.Baseline: must be in [0.02, 1] m");
+  expectError("Sequence.MotionSpeed: 10\n", "Sequence.MotionSpeed: must be in [0.25, 4]");
   Scenario fisheye = scenarioFrom("Sequence.Camera: \"mono\"\nSequence.Lens: \"fisheye\"\n", "fisheye");
   fisheye.camera = "rgbd";  // as rvwo-sim --camera rgbd would (fisheye is mono and stereo only)
   EXPECT_THROW(validateScenario(fisheye, "overrides"), std::runtime_error);
@@ -269,6 +274,57 @@ TEST(Simulator, ScenarioErrorsNameFileAndKey) {
 }
 
 using rvwo::test::slurp;
+
+// Every drawn scenario is one the scenario checks accept, its events inside it; the same seed
+// draws the same text, and over 20 seeds a camera meets every bundled motion and, but for RGB-D,
+// both lenses.
+TEST(Simulator, RandomisedScenariosCoverTheMotionsAndLenses) {
+  const std::string folder = motionFolder();
+  std::size_t motions = 0;
+  for (const auto& e : fs::directory_iterator(folder)) motions += e.path().extension() == ".txt";
+  ASSERT_GE(motions, 6u);
+  for (const std::string camera : {"stereo", "rgbd", "mono"}) {
+    std::set<std::string> files, lenses, texts;
+    for (unsigned seed = 1; seed <= 20; ++seed) {
+      const std::string text = randomScenario(seed, camera, "", 60, folder);
+      EXPECT_EQ(text, randomScenario(seed, camera, "", 60, folder));
+      texts.insert(text);
+      const Scenario s = parseScenario(text, "drawn", ".");
+      SCOPED_TRACE(text);
+      EXPECT_EQ(s.camera, camera);
+      EXPECT_LE(s.duration, 60.0);
+      EXPECT_GE(s.duration, 20.0);
+      files.insert(s.motion_file);
+      lenses.insert(s.lens);
+      for (const auto* events : {&s.slip, &s.blackout, &s.low_texture, &s.bumps})
+        for (const Interval& i : *events) EXPECT_TRUE(i.t0 >= 2 && i.t1 <= s.duration - 2) << i.t0 << " " << i.t1;
+    }
+    EXPECT_EQ(texts.size(), 20u);
+    EXPECT_EQ(files.size(), motions) << camera;
+    EXPECT_EQ(lenses.size(), camera == "rgbd" ? 1u : 2u) << camera;
+  }
+  EXPECT_NE(randomScenario(1, "stereo", "pinhole", 60, folder).find("Sequence.Lens: \"pinhole\""), std::string::npos);
+}
+
+// rvwo-sim --randomise writes the scenario it drew; --scenario on that file renders the same
+// sequence, with the drawn focal length and baseline in the settings.
+TEST(Simulator, RandomisedScenarioRendersAgainFromItsFile) {
+  const fs::path dir = rvwo::test::scratch("rvwo_sim_randomised");
+  fs::remove_all(dir);
+  const std::string sim = std::string(RVWO_SIM) + " --quiet --seed 4 --duration 0.5 --camera stereo --lens pinhole";
+  ASSERT_EQ(std::system((sim + " --randomise --out " + (dir / "a").string() + " > /dev/null").c_str()), 0);
+  ASSERT_EQ(std::system((sim + " --scenario " + (dir / "a" / "scenario.yaml").string() + " --out " +
+                         (dir / "b").string() + " > /dev/null")
+                            .c_str()),
+            0);
+  for (const char* file : {"sequence.rawlog", "groundtruth.txt", "sequence_Images/L_000010.png"})
+    EXPECT_EQ(slurp(dir / "a" / file), slurp(dir / "b" / file)) << file;
+  const Scenario drawn = loadScenario((dir / "a" / "scenario.yaml").string());
+  const Settings settings = Settings::load((dir / "a" / "settings.yaml").string());
+  EXPECT_NEAR(settings.requireNumber("Camera1.fx"), drawn.focal, 1e-9);
+  EXPECT_NEAR(settings.requireNumber("Stereo.b"), drawn.baseline, 1e-9);
+  EXPECT_NE(drawn.focal, 400.0);
+}
 
 TEST(Simulator, SameSeedSameBytes) {
   const fs::path dir = rvwo::test::scratch("rvwo_sim_determinism");

@@ -1,10 +1,10 @@
 # Installs RVWO into a fresh prefix and copies the installed tree elsewhere (nothing in it may
 # point at the build, the source tree or its .deps/). From the copy, with LD_LIBRARY_PATH empty:
-# every installed app's --help, and rvwo-sim (on an installed scenario) and rvwo-replay on a 2 s
-# sequence. Then configures, builds and runs consumer projects against the copy: one made of the
-# README's "Use a component in your own SLAM system" code blocks (so the README's example is the one
-# that compiles), and one per component asked for alone (kernels alone gets rvwo::kernels and
-# nothing else).
+# every installed app's --help, rvwo-sim (on an installed scenario; --randomise on the installed
+# motions) and rvwo-replay on a 2 s sequence. Then configures, builds and runs consumer projects
+# against the copy: one made of the README's "Use a component in your own SLAM system" code
+# blocks (so the README's example is the one that compiles), and one per component asked for alone
+# (kernels alone gets rvwo::kernels and nothing else).
 # With -DFROM=deb the tree is the Debian package's (cpack -G DEB), unpacked with dpkg-deb -x.
 # Run as: cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... [-DFROM=deb] -P consumer_test.cmake
 foreach(v BUILD_DIR SOURCE_DIR WORK_DIR)
@@ -86,6 +86,14 @@ if(EXISTS "${prefix}/bin/rvwo-sim" AND EXISTS "${prefix}/bin/rvwo-replay")
   list(LENGTH poses n)
   if(n LESS 50)
     message(FATAL_ERROR "consumer_test: the installed rvwo-replay wrote ${n} poses for 2 s at 30 Hz")
+  endif()
+  # --randomise draws among the installed motions, not the source tree's.
+  run("${prefix}/bin/rvwo-sim" --quiet --randomise --seed 2 --lens pinhole --duration 0.3 --out "${WORK_DIR}/drawn")
+  file(READ "${WORK_DIR}/drawn/scenario.yaml" drawn)
+  file(REAL_PATH "${prefix}/share/rvwo/scenarios/motion" motions)
+  string(FIND "${drawn}" "Sequence.MotionFile: \"${motions}/" at)
+  if(at EQUAL -1)
+    message(FATAL_ERROR "consumer_test: the installed rvwo-sim --randomise took no installed motion:\n${drawn}")
   endif()
 endif()
 foreach(f include/rvwo/kernels/barron.h include/rvwo/edges/se2_xyz_edge.h lib/cmake/rvwo/rvwoConfig.cmake)
