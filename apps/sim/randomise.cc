@@ -62,7 +62,13 @@ struct Slots {
   }
 };
 
-std::string list(const std::vector<double>& v) {
+// v's groups of `per` numbers in the order of their first (a time).
+std::string list(std::vector<double> v, std::size_t per) {
+  std::vector<std::vector<double>> groups;
+  for (std::size_t i = 0; i + per <= v.size(); i += per) groups.emplace_back(v.begin() + i, v.begin() + i + per);
+  std::sort(groups.begin(), groups.end());
+  v.clear();
+  for (const auto& g : groups) v.insert(v.end(), g.begin(), g.end());
   std::ostringstream o;
   o << std::fixed << std::setprecision(3) << "[";
   for (std::size_t i = 0; i < v.size(); ++i) o << (i ? ", " : "") << v[i];
@@ -104,7 +110,8 @@ std::string randomScenario(unsigned seed, const std::string& camera, const std::
     << "\nOdometry.TrackError: " << d.real(-0.04, 0.04) << "\nOdometry.NoiseWheel: " << d.real(0.002, 0.008)
     << "\nWalkers.Count: " << d.integer(0, 4) << "\nWalkers.Escorts: " << d.integer(0, 2)
     << "\nWalkers.Speed: " << d.real(0.7, 1.3) << "\n";
-  // Events, each kind 0 to 2 times, in slots of their own.
+  // Events, each kind 0 to 2 times, in slots of their own, written in time order (the light's
+  // changes must be: the last one begun holds).
   Slots slots{2.0, s.duration - 2.0, {}};
   std::vector<double> slip, blackout, low, bumps, light;
   double t0 = 0;
@@ -124,18 +131,15 @@ std::string randomScenario(unsigned seed, const std::string& camera, const std::
     const double length = d.real(3.0, 10.0), amplitude = d.real(0.005, 0.015);
     if (slots.place(d, length, &t0)) bumps.insert(bumps.end(), {t0, t0 + length, amplitude});
   }
-  std::vector<std::pair<double, double>> changes;  // light: (from t, gain), in time order as the key asks
   for (int n = d.integer(0, 3); n > 0; --n) {
     const double t = d.real(0, s.duration), gain = d.real(0.6, 1.4);  // (in this order on every compiler)
-    changes.emplace_back(t, gain);
+    light.insert(light.end(), {t, gain});
   }
-  std::sort(changes.begin(), changes.end());
-  for (const auto& [t, gain] : changes) light.insert(light.end(), {t, gain});
-  if (!slip.empty()) o << "Events.Slip: " << list(slip) << "\n";
-  if (!blackout.empty()) o << "Events.Blackout: " << list(blackout) << "\n";
-  if (!low.empty()) o << "Events.LowTexture: " << list(low) << "\n";
-  if (!bumps.empty()) o << "Events.Bumps: " << list(bumps) << "\n";
-  if (!light.empty()) o << "Events.Illumination: " << list(light) << "\n";
+  if (!slip.empty()) o << "Events.Slip: " << list(slip, 2) << "\n";
+  if (!blackout.empty()) o << "Events.Blackout: " << list(blackout, 2) << "\n";
+  if (!low.empty()) o << "Events.LowTexture: " << list(low, 3) << "\n";
+  if (!bumps.empty()) o << "Events.Bumps: " << list(bumps, 3) << "\n";
+  if (!light.empty()) o << "Events.Illumination: " << list(light, 2) << "\n";
   return o.str();
 }
 

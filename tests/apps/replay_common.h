@@ -21,18 +21,21 @@ namespace fs = std::filesystem;
 
 using rvwo::test::slurp;
 
-// A scenario of the suite (or a scenario file, by absolute path), cut to `duration` seconds,
-// simulated into a fresh scratch folder.
-inline fs::path simulate(const std::string& scenario, double duration, const std::string& extra = "", int seed = 1) {
-  const fs::path dir = rvwo::test::scratch("replay_" + fs::path(scenario).stem().string());
+// rvwo-sim with the given switches, cut to `duration` seconds, into a fresh scratch folder.
+inline fs::path runSim(const std::string& name, const std::string& args, double duration, int seed) {
+  const fs::path dir = rvwo::test::scratch("replay_" + name);
   fs::remove_all(dir);
-  const std::string file =
-      fs::path(scenario).is_absolute() ? scenario : std::string(RVWO_SOURCE_DIR) + "/scenarios/" + scenario + ".yaml";
-  const std::string cmd = std::string(RVWO_SIM) + " --quiet --scenario " + file + " --out " + dir.string() +
-                          " --seed " + std::to_string(seed) + " --duration " + std::to_string(duration) + " " + extra +
-                          " > /dev/null";
+  const std::string cmd = std::string(RVWO_SIM) + " --quiet " + args + " --out " + dir.string() + " --seed " +
+                          std::to_string(seed) + " --duration " + std::to_string(duration) + " > /dev/null";
   EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
   return dir;
+}
+
+// A scenario of the suite (or a scenario file, by absolute path), simulated (runSim).
+inline fs::path simulate(const std::string& scenario, double duration, const std::string& extra = "", int seed = 1) {
+  const std::string file =
+      fs::path(scenario).is_absolute() ? scenario : std::string(RVWO_SOURCE_DIR) + "/scenarios/" + scenario + ".yaml";
+  return runSim(fs::path(scenario).stem().string(), "--scenario " + file + " " + extra, duration, seed);
 }
 
 // Scenario lines that give the perfect camera of rvwo-sim's first versions: every camera effect
@@ -41,12 +44,13 @@ inline const char* kPerfectCamera =
     "Camera.Exposure: 0\nCamera.Vignetting: 0\nCamera.AutoExposure: 0\nCamera.ShotNoise: 0\n"
     "Depth.Noise: 0\nDepth.MaxIncidence: 90\nDepth.MinAlbedo: 0\nDepth.Misregistration: [0, 0]\n";
 
-// The static scenario as a file of its own in the scratch folder (`name`.yaml, the motion file by
-// absolute path), with Sequence.Camera and Sequence.Lens when given and `extra` lines appended.
-inline fs::path staticScenario(const std::string& name, const std::string& extra, const std::string& camera = "",
-                               const std::string& lens = "") {
+// A scenario of the suite (`base`) as a file of its own in the scratch folder (`name`.yaml, the
+// motion file by absolute path), with Sequence.Camera and Sequence.Lens when given and `extra`
+// lines appended.
+inline fs::path suiteScenario(const std::string& base, const std::string& name, const std::string& extra,
+                              const std::string& camera = "", const std::string& lens = "") {
   const fs::path scenario = rvwo::test::scratch(name + ".yaml");
-  std::ifstream in(std::string(RVWO_SOURCE_DIR) + "/scenarios/static.yaml");
+  std::ifstream in(std::string(RVWO_SOURCE_DIR) + "/scenarios/" + base + ".yaml");
   std::ofstream out(scenario);
   for (std::string l; std::getline(in, l);) {
     if (l.rfind("Sequence.Camera:", 0) == 0 && !camera.empty())
@@ -57,6 +61,12 @@ inline fs::path staticScenario(const std::string& name, const std::string& extra
   }
   out << extra;
   return scenario;
+}
+
+// The static scenario so (suiteScenario).
+inline fs::path staticScenario(const std::string& name, const std::string& extra, const std::string& camera = "",
+                               const std::string& lens = "") {
+  return suiteScenario("static", name, extra, camera, lens);
 }
 
 struct Outcome {
