@@ -134,33 +134,31 @@ struct SimArgs {
 
 // The scenario file with the command line's overrides, checked again with them.
 rvwo::sim::Scenario scenarioOf(SimArgs& args) {
-  const bool drawn = args.randomise.getValue();  // --camera, --lens and --duration are then drawn with
-  const std::string source = drawn ? "rvwo-sim --randomise" : args.scenario.getValue();
-  rvwo::sim::Scenario sc;
-  if (drawn) {
+  if (args.randomise.getValue()) {  // --camera, --lens and --duration are drawn with
     const std::string camera = args.camera.getValue().empty() ? "stereo" : args.camera.getValue();
     const double duration = args.duration.isSet() ? args.duration.getValue() : 60;
-    sc = rvwo::sim::parseScenario(rvwo::sim::randomScenario(args.seed.getValue(), camera, args.lens.getValue(),
-                                                            duration, rvwo::sim::motionFolder()),
-                                  source, ".");
+    rvwo::sim::Scenario sc =
+        rvwo::sim::parseScenario(rvwo::sim::randomScenario(args.seed.getValue(), camera, args.lens.getValue(), duration,
+                                                           rvwo::sim::motionFolder()),
+                                 "rvwo-sim --randomise", ".");
     sc.name = "randomised";
-  } else {
-    sc = rvwo::sim::loadScenario(args.scenario.getValue());
+    return sc;
   }
-  if (!drawn && !args.camera.getValue().empty()) {
+  rvwo::sim::Scenario sc = rvwo::sim::loadScenario(args.scenario.getValue());
+  if (!args.camera.getValue().empty()) {
     sc.camera = args.camera.getValue();
     sc.text += "# rvwo-sim --camera " + sc.camera + "\n";
   }
-  if (!drawn && !args.lens.getValue().empty()) {
+  if (!args.lens.getValue().empty()) {
     sc.lens = args.lens.getValue();
     sc.text += "# rvwo-sim --lens " + sc.lens + "\n";
   }
-  if (!drawn && args.duration.isSet()) {
+  if (args.duration.isSet()) {
     sc.duration = args.duration.getValue();
     sc.text += "# rvwo-sim --duration " + std::to_string(sc.duration) + "\n";
   }
   // The overrides pass the scenario's own checks (e.g. --camera stereo on a fisheye scenario).
-  rvwo::sim::validateScenario(sc, source + " with the command-line overrides");
+  rvwo::sim::validateScenario(sc, args.scenario.getValue() + " with the command-line overrides");
   return sc;
 }
 
