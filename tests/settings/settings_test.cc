@@ -85,6 +85,16 @@ TEST(Settings, SyntaxErrorsAndKeysGivenTwiceNameTheirLines) {
   // OpenCV's parser looped for ever on this one (fuzzing found it): refused before it reads.
   EXPECT_EQ(errorOf("%YAML:1.0\n# a comment\n\n   data: []\nOdo-e:1.0\n"),
             bad.string() + ": line 4: the first key is indented (top-level keys start in the first column)");
+  // And when keys begin on the '---' line, or text follows the document's end (fuzzing found the
+  // first, tests/fuzz/regressions/settings/keys-on-the-document-line-opencv-loops.yaml).
+  EXPECT_EQ(errorOf("%YAML:1.0\n---M:C\n--'-\n"),
+            bad.string() + ": line 2: text after '---' on its line (start the keys on the next line)");
+  EXPECT_EQ(errorOf("%YAML:1.0\n---\nA: 1\n...\n-\n"),
+            bad.string() + ": line 5: text after the document's end ('...'): a settings file is one document");
+  // A second document, which the reader would not have read, is refused the same way.
+  EXPECT_EQ(errorOf("%YAML:1.0\n---\nA: 1\n...\n---\nB: 2\n"),
+            bad.string() + ": line 5: text after the document's end ('...'): a settings file is one document");
+  EXPECT_EQ(errorOf("%YAML:1.0\n--- # a comment\nA: 1\n...\n# the end\n"), "loaded");
   // And on a NUL amid keys (fuzzing found it, tests/fuzz/regressions/settings/opencv_loop_on_nul):
   // a control character YAML does not allow is refused with its line; CRs are not.
   EXPECT_EQ(errorOf(std::string("%YAML:1.0\nA: 1\nB: \0\0x\n", 20)),

@@ -61,18 +61,31 @@ void checkDuplicateKeys(const std::string& name, const std::string& text) {
   }
 }
 
-// The first key starts in the first column. OpenCV 4.6's YAML parser can loop for ever on a file
-// whose first key is indented and a later line is not (fuzzing found one): refused before it reads.
-void checkFirstKey(const std::string& name, const std::string& text) {
+// One document, its keys from the first column. OpenCV 4.6's YAML parser loops for ever when its
+// top-level map ends before the text does and a '-' comes next; fuzzing found three ways in: the
+// first key indented, keys on the '---' line (an indented map), text after a '...' line (the
+// document's end). Each is refused before OpenCV reads the file.
+void checkOneDocument(const std::string& name, const std::string& text) {
   std::istringstream in(text);
   std::string line;
+  bool keys = false, ended = false;
   for (int n = 1; std::getline(in, line); ++n) {
     const std::size_t at = line.find_first_not_of(" \t\r");
-    if (at == std::string::npos || line[at] == '#' || line[at] == '%' || line.compare(at, 3, "---") == 0) continue;
-    if (at > 0)
-      throw std::runtime_error(name + ": line " + std::to_string(n) +
-                               ": the first key is indented (top-level keys start in the first column)");
-    return;
+    if (at == std::string::npos || line[at] == '#') continue;
+    const std::string where = name + ": line " + std::to_string(n) + ": ";
+    if (ended)
+      throw std::runtime_error(where + "text after the document's end ('...'): a settings file is one document");
+    if (at == 0 && line.compare(0, 3, "...") == 0) {
+      ended = true;
+    } else if (line.compare(at, 3, "---") == 0) {
+      const std::size_t next = line.find_first_not_of(" \t\r", at + 3);
+      if (next != std::string::npos && line[next] != '#')
+        throw std::runtime_error(where + "text after '---' on its line (start the keys on the next line)");
+    } else if (!keys && line[at] != '%') {
+      if (at > 0)
+        throw std::runtime_error(where + "the first key is indented (top-level keys start in the first column)");
+      keys = true;
+    }
   }
 }
 
@@ -90,7 +103,7 @@ void checkYamlText(const std::string& name, const std::string& text) {
     }
     line += c == '\n';
   }
-  checkFirstKey(name, text);
+  checkOneDocument(name, text);
 }
 
 Settings Settings::load(const std::string& path) {
