@@ -5,10 +5,12 @@
 #include "support/rawlog.h"
 
 #include <gtest/gtest.h>
+#include <mrpt/io/CFileOutputStream.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CObservationStereoImages.h>
+#include <mrpt/serialization/CArchive.h>
 #include <mrpt/system/datetime.h>
 
 #include <cstdlib>
@@ -221,6 +223,45 @@ TEST(Rawlog, CorruptBytesAndMissingFileGetClearErrors) {
 // The gz check before replay: a whole stream is intact, one with a flipped bit damaged (though
 // the reader delivers records before the damage shows), one cut short truncated, and a plain
 // (uncompressed) file has no check to make.
+// An embedded image whose size in the file no machine can hold (2^21 x 2^21 pixels): MRPT asks
+// OpenCV for the buffer before reading a pixel, the allocation fails, and the record is reported
+// as corrupt (found by fuzzing, docs/decisions/0013).
+TEST(Rawlog, EmbeddedImageOfImpossibleSizeIsACorruptRecord) {
+  const fs::path dir = fresh("rvwo_rawlog_huge_image");
+  const std::string path = (dir / "huge.rawlog").string();
+  {
+    CObservationOdometry odo;
+    odo.sensorLabel = "ODOMETRY";
+    CObservationImage mono;
+    mono.sensorLabel = "CAMERA";
+    mono.image = pattern(37, 23, 1);
+    mrpt::io::CFileOutputStream f(path);  // uncompressed, so the bytes can be edited in place
+    auto archive = mrpt::serialization::archiveFrom(f);
+    archive << odo << mono;
+  }
+  // CImage's record holds the width and height as 32-bit integers, side by side, after its
+  // class name: set both to 2^21.
+  std::string bytes = rvwo::test::slurp(path);
+  const std::int32_t size[2] = {37, 23}, huge[2] = {1 << 21, 1 << 21};
+  const std::size_t size_at =
+      bytes.find(std::string(reinterpret_cast<const char*>(size), sizeof size), bytes.find("mrpt::img::CImage"));
+  ASSERT_NE(size_at, std::string::npos);
+  bytes.replace(size_at, sizeof huge, reinterpret_cast<const char*>(huge), sizeof huge);
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+
+  RawlogReader r(path);
+  ASSERT_TRUE(r.next());  // the odometry record before it
+  try {
+    r.next();
+    FAIL() << "an image of 2^42 pixels was read";
+  } catch (const RawlogError& e) {
+    EXPECT_EQ(e.index(), 1u);
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind(path + ": record 1: truncated or corrupt (", 0), 0u) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << "one line: " << what;
+  }
+}
+
 TEST(Rawlog, TheStreamCheckTellsDamageFromACutAndFromNoCheck) {
   const fs::path dir = fresh("rvwo_rawlog_check");
   const std::string path = writeOdometry(dir, 4000, 1);
