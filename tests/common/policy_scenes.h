@@ -168,9 +168,6 @@ inline std::vector<PolicyScene> policyScenes() {
     for (int k = 0; k < 60; ++k) s.walker.push_back(Eigen::Vector3d(2.0 + dx(rng), 0.6 + dy(rng), dz(rng)));
     s.walker_at = [](double t) { return Eigen::Vector3d(0.3 * t, -0.8 * t, 0.0); };  // along, and across
     s.calls.max_error = 0.02;
-    // The estimator's first keyframe makes its points from the closest features, the walker's
-    // among them (60 of 158 matched): vision alone follows it in the first frame, called a slip.
-    s.estimator = PolicyCalls{0.0, 0.04, 1, 0.05};
     scenes.push_back(s);
   }
   {

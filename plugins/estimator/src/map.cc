@@ -63,7 +63,9 @@ int Map::createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std::v
     if (kf.point[i] >= 0) points.at(kf.point[i]).obs[kf.id] = static_cast<int>(i);
   }
   // New points: untracked features with depth (none on walkers: no_new_point), nearest first;
-  // every close one, at least 100.
+  // every close one, at least 100. The first keyframe maps every feature with depth, as ORB-SLAM3's
+  // stereo and RGB-D initialisation does: a close walker then holds no sway over the next frames
+  // (docs/decisions/0016).
   std::vector<int> cand;
   for (std::size_t i = 0; i < kf.f.size(); ++i) {
     if (kf.point[i] < 0 && kf.f.depth[i] > 0 && (no_new_point.empty() || !no_new_point[i]))
@@ -72,9 +74,10 @@ int Map::createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std::v
   std::sort(cand.begin(), cand.end(), [&](int a, int b) { return kf.f.depth[a] < kf.f.depth[b]; });
   const double close = ctx_.opt.max_depth_baselines * ctx_.rig.baseline;
   const SE2 T_w_b = SE2::fromVector(x);
+  const bool first = keyframes.empty();
   int made = 0;
   for (int i : cand) {
-    if (kf.f.depth[i] > close && made >= 100) break;
+    if (!first && kf.f.depth[i] > close && made >= 100) break;
     const cv::KeyPoint& kp = kf.f.keypoints[i];
     const Eigen::Vector3d P_c = kf.f.depth[i] * ctx_.rig.camera->unproject(Eigen::Vector2d(kp.pt.x, kp.pt.y));
     const Eigen::Vector3d P_b = ctx_.rig.T_b_c * P_c;
