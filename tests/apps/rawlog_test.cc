@@ -220,9 +220,6 @@ TEST(Rawlog, CorruptBytesAndMissingFileGetClearErrors) {
   EXPECT_FALSE(empty.next().has_value());
 }
 
-// The gz check before replay: a whole stream is intact, one with a flipped bit damaged (though
-// the reader delivers records before the damage shows), one cut short truncated, and a plain
-// (uncompressed) file has no check to make.
 // An embedded image whose size in the file no machine can hold (2^21 x 2^21 pixels): MRPT asks
 // OpenCV for the buffer before reading a pixel, the allocation fails, and the record is reported
 // as corrupt (found by fuzzing, docs/decisions/0013).
@@ -262,6 +259,9 @@ TEST(Rawlog, EmbeddedImageOfImpossibleSizeIsACorruptRecord) {
   }
 }
 
+// The gz check before replay: a whole stream is intact, one with a flipped bit damaged (though
+// the reader delivers records before the damage shows), one cut short truncated, and a plain
+// (uncompressed) file has no check to make.
 TEST(Rawlog, TheStreamCheckTellsDamageFromACutAndFromNoCheck) {
   const fs::path dir = fresh("rvwo_rawlog_check");
   const std::string path = writeOdometry(dir, 4000, 1);

@@ -72,18 +72,18 @@ void checkOneDocument(const std::string& name, const std::string& text) {
   for (int n = 1; std::getline(in, line); ++n) {
     const std::size_t at = line.find_first_not_of(" \t\r");
     if (at == std::string::npos || line[at] == '#') continue;
-    const std::string where = name + ": line " + std::to_string(n) + ": ";
-    if (ended)
-      throw std::runtime_error(where + "text after the document's end ('...'): a settings file is one document");
+    const auto refuse = [&](const std::string& why) {
+      throw std::runtime_error(name + ": line " + std::to_string(n) + ": " + why);
+    };
+    if (ended) refuse("text after the document's end ('...'): a settings file is one document");
     if (at == 0 && line.compare(0, 3, "...") == 0) {
       ended = true;
     } else if (line.compare(at, 3, "---") == 0) {
       const std::size_t next = line.find_first_not_of(" \t\r", at + 3);
       if (next != std::string::npos && line[next] != '#')
-        throw std::runtime_error(where + "text after '---' on its line (start the keys on the next line)");
+        refuse("text after '---' on its line (start the keys on the next line)");
     } else if (!keys && line[at] != '%') {
-      if (at > 0)
-        throw std::runtime_error(where + "the first key is indented (top-level keys start in the first column)");
+      if (at > 0) refuse("the first key is indented (top-level keys start in the first column)");
       keys = true;
     }
   }
