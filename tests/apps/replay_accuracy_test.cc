@@ -69,55 +69,49 @@ TEST(Replay, StaticEveryFrameAccurateAndAdaptiveCostsNothing) {
 }
 
 TEST(Replay, DynamicAdaptiveKernelBeatsHuber) {
-  // The ratio and bound, summed over the 30 s cuts of seeds 1-3: on a single cut the two
-  // kernels' few millimetres are a draw (seed 1: adaptive 0.0042 m, Huber 0.0036; seed 2: 0.0023
-  // and 0.0088; seed 3: 0.0023 and 0.0056; summed 0.49). Before keypoints were placed on their
-  // content (placeOnTheirContent) the sums were 0.0086 and 0.0115 m: 0.75. (The cuts' hard part:
-  // at 8.6 s of seed 1 walkers fill 73 % of the view. Until vision counted only landmarks no
-  // label calls dynamic, their freshly mapped points kept tracking 'visual' and pulled the map
-  // 0.14 rad before three labels each rejected them: adaptive 1.16 %, Huber 1.80 %; now those
-  // frames follow the wheels.) On today's camera (docs/decisions/0015) the sums are 0.0087 m and
-  // 0.0111 m: 0.78 (seed 1 0.0036 and 0.0026, seed 2 0.0018 and 0.0043, seed 3 0.0032 and
-  // 0.0041). The 0.7 is not met there; until it is, the test holds that the adaptive
-  // kernel still wins, summed.
-  double sum_huber = 0, sum_adaptive = 0;
-  const int seeds = fullLength() ? 3 : 1;  // one cut's ratio is a draw: the short run checks its bounds
-  for (int seed = 1; seed <= seeds; ++seed) {
-    const fs::path dir = simulate("dynamic", 30, "", seed);
-    const Outcome huber = replay(dir, "--kernel huber", "huber");
+  // The 30 s cut (seed 1): within its bounds, walkers never taken for a slip, and without labels
+  // the wheels still hold. On the cut the two kernels' ATE is a draw (seeds 1-8: adaptive ahead on
+  // six, 0.89x summed; docs/decisions/0017), so the kernels are compared on the whole scene below.
+  {
+    const fs::path dir = simulate("dynamic", 30);
     const Outcome adaptive = replay(dir, "--kernel adaptive", "adaptive");
-    ASSERT_EQ(huber.status, 0) << huber.err;
     ASSERT_EQ(adaptive.status, 0) << adaptive.err;
     EXPECT_EQ(adaptive.poses, lines(dir / "groundtruth.txt"));
-    show("dynamic s" + std::to_string(seed) + " vw huber", huber);
-    show("dynamic s" + std::to_string(seed) + " vw adaptive", adaptive);
-    sum_huber += huber.ate;
-    sum_adaptive += adaptive.ate;
-    EXPECT_LE(adaptive.ate, 0.005 * adaptive.path) << "seed " << seed;
+    show("dynamic 30 s vw adaptive", adaptive);
+    EXPECT_LE(adaptive.ate, 0.005 * adaptive.path);
     // Walkers are no slip: vision alone, pulled by them, must not overrule the wheels (before the
     // slip test asked how vision alone moved, it did so on 56 frames of the 90 s scenario, with
-    // steps of up to 35 cm). That is the adaptive kernel's to keep: Huber, which trusts a
-    // walker's points as much as the room's, lets one frame of seed 2 through on today's camera
-    // (its largest 1-frame step 3.5 cm), so it is held to the steps alone.
-    EXPECT_FALSE(slipCaught(adaptive.out)) << "seed " << seed << "\n" << adaptive.out;
-    for (const Outcome* r : {&huber, &adaptive}) EXPECT_LE(r->max_step, 0.05) << "seed " << seed;
-    if (seed == 1) {
-      // Without labels (a network that misses the walkers) only the reprojection errors and the
-      // wheels stand against them. Vision alone, pulled by walkers, once overruled the wheels for
-      // 21 frames, a walker's step of 4-5 cm each, sideways or back: a 1-frame step of 0.25 m,
-      // 1.18 % of the path. Now 0.35 %, the largest step 8.3 cm (local BA bending the map, not a
-      // slip); this cut is the one of five where the wheel gate costs (below).
-      const Outcome blind = replay(dir, "--kernel adaptive --no-semantics", "no_labels");
-      ASSERT_EQ(blind.status, 0) << blind.err;
-      show("dynamic s1 vw adaptive, no labels", blind);
-      EXPECT_LE(blind.max_step, 0.12);
-      EXPECT_LE(blind.ate, 0.008 * blind.path);
-    }
+    // steps of up to 35 cm).
+    EXPECT_FALSE(slipCaught(adaptive.out)) << adaptive.out;
+    EXPECT_LE(adaptive.max_step, 0.05);
+    // Without labels (a network that misses the walkers) only the reprojection errors and the
+    // wheels stand against them. Vision alone, pulled by walkers, once overruled the wheels for 21
+    // frames, a walker's step of 4-5 cm each, sideways or back: a 1-frame step of 0.25 m, 1.18 % of
+    // the path. Now 0.085 %, the largest step 8.3 cm (local BA bending the map, not a slip).
+    const Outcome blind = replay(dir, "--kernel adaptive --no-semantics", "no_labels");
+    ASSERT_EQ(blind.status, 0) << blind.err;
+    show("dynamic 30 s vw adaptive, no labels", blind);
+    EXPECT_LE(blind.max_step, 0.12);
+    EXPECT_LE(blind.ate, 0.008 * blind.path);
     fs::remove_all(dir);
   }
-  if (seeds == 3) {
-    EXPECT_LT(sum_adaptive, sum_huber) << "adaptive " << sum_adaptive << ", huber " << sum_huber;
-  }
+  // The ratio on the whole 90 s scene, where walkers come back four times: adaptive at
+  // most 0.7x Huber (seed 1 0.39x; seeds 2 and 3, not run here, 0.51x and 0.64x: decision 0017).
+  // Huber, which weighs a walker's points as much as the room's once matched, lets walkers move
+  // single frames by 2-7 cm; the adaptive kernel's largest step is 7 mm, as on the cut.
+  RVWO_FULL_LENGTH_ONLY();
+  const fs::path dir = simulate("dynamic", 90);
+  const Outcome huber = replay(dir, "--kernel huber", "huber");
+  const Outcome adaptive = replay(dir, "--kernel adaptive", "adaptive");
+  ASSERT_EQ(huber.status, 0) << huber.err;
+  ASSERT_EQ(adaptive.status, 0) << adaptive.err;
+  show("dynamic 90 s vw huber", huber);
+  show("dynamic 90 s vw adaptive", adaptive);
+  EXPECT_LE(adaptive.ate, 0.7 * huber.ate);
+  EXPECT_LE(adaptive.ate, 0.005 * adaptive.path);
+  EXPECT_FALSE(slipCaught(adaptive.out)) << adaptive.out;
+  EXPECT_LE(adaptive.max_step, 0.01);
+  fs::remove_all(dir);
 }
 
 // Walkers no label marks drag the fused pose off the wheels a few millimetres and milliradians a
