@@ -88,7 +88,7 @@ int Map::createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std::v
   const std::uint64_t id = kf.id;
   keyframes.emplace(id, std::move(kf));
   KeyFrame& added = keyframes.at(id);
-  if (ctx_.rig.sensor == Sensor::kMono) made += triangulate(&added);
+  if (ctx_.rig.sensor != Sensor::kStereo) made += triangulate(&added);
   counters.map_points_created += made;
   if (added.tracked == 0) added.tracked = made;
   return made;

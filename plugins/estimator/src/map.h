@@ -57,7 +57,7 @@ struct Match {
   int feature;
 };
 
-// Mono: new points are triangulated between a keyframe and this many keyframes before it.
+// Mono and RGB-D: new points are triangulated between a keyframe and this many keyframes before it.
 constexpr int kTriangulationNeighbours = 5;
 
 struct Map {
@@ -108,15 +108,14 @@ struct Map {
   // A new map point seen by feature i of kf at P_w (world), distance m from its camera.
   MapPoint& newPoint(KeyFrame* kf, int i, const Eigen::Vector3d& P_w, double distance);
 
-  // Mono: new points from kf's untracked features matched with those of the keyframes before it
-  // (kTriangulationNeighbours; two were too few to keep a map through a slow turn) (ORB-SLAM's
-  // CreateNewMapPoints, with the keyframes' poses known). Those poses carry the wheels' metric
-  // scale (the first two keyframes are placed by the wheels alone), so the map has it too; a turn
-  // on the spot (a baseline under Estimator.MonoMinBaseline) triangulates nothing, which is how a
-  // pure-rotation start is refused. A pair must lie on the epipolar plane (within 3 sigma of the
-  // coarser level, plus 2 mrad for the poses), match (Hamming <= 50, best clearly before second),
-  // meet at a parallax >= Estimator.MonoMinParallax in front of both cameras and reproject within
-  // the mono chi2 gate in both. Returns the points made.
+  // Mono and RGB-D (not stereo, decision 0020): new points from kf's untracked features matched
+  // with those of the keyframes before it (kTriangulationNeighbours; two were too few to keep a
+  // map through a slow turn) (ORB-SLAM's CreateNewMapPoints, with the keyframes' poses known). Those poses carry the
+  // wheels' metric scale (the first two keyframes are placed by the wheels alone), so the map has it too; a turn on the
+  // spot (a baseline under Estimator.MonoMinBaseline) triangulates nothing, which is how a pure-rotation start is
+  // refused. A pair must lie on the epipolar plane (within 3 sigma of the coarser level, plus 2 mrad for the poses),
+  // match (Hamming <= 50, best clearly before second), meet at a parallax >= Estimator.MonoMinParallax in front of both
+  // cameras and reproject within the mono chi2 gate in both. Returns the points made.
   int triangulate(KeyFrame* kf);
 
   void eraseObservations(const MapPoint& p);

@@ -89,7 +89,7 @@ struct EstimatorOptions {
   // ---- tracking
   double search_radius = 12;        // px at level 0, projection search (Estimator.SearchRadius)
   double max_depth_baselines = 40;  // close points (ORB-SLAM's ThDepth): new points closer than this many baselines
-  // ---- mono: points triangulated between keyframes whose poses the wheels scale
+  // ---- mono and RGB-D: points triangulated between keyframes whose poses the wheels scale
   double mono_min_baseline =
       0.05;  // m between camera centres; less (a turn on the spot) triangulates nothing (Estimator.MonoMinBaseline)
   double mono_min_parallax = 1.0;  // degrees between the two rays of a new point (Estimator.MonoMinParallax)
