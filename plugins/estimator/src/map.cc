@@ -88,7 +88,9 @@ int Map::createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std::v
   const std::uint64_t id = kf.id;
   keyframes.emplace(id, std::move(kf));
   KeyFrame& added = keyframes.at(id);
-  if (ctx_.rig.sensor != Sensor::kStereo) made += triangulate(&added);
+  // RGB-D triangulates no walker's feature either (decision 0020); mono is not measured with that.
+  if (ctx_.rig.sensor == Sensor::kMono) made += triangulate(&added, {});
+  if (ctx_.rig.sensor == Sensor::kRgbd) made += triangulate(&added, no_new_point);
   counters.map_points_created += made;
   if (added.tracked == 0) added.tracked = made;
   return made;
@@ -108,7 +110,7 @@ MapPoint& Map::newPoint(KeyFrame* kf, int i, const Eigen::Vector3d& P_w, double 
   return points.emplace(p.id, std::move(p)).first->second;
 }
 
-int Map::triangulate(KeyFrame* kf) {
+int Map::triangulate(KeyFrame* kf, const std::vector<char>& no_new_point) {
   const Eigen::Isometry3d T_w_c1 = ctx_.T_w_c(kf->x);
   const double cos_min = std::cos(ctx_.opt.mono_min_parallax * M_PI / 180.0);
   std::vector<double> tolerance(ctx_.opt.levels);  // rad off the epipolar plane, by pyramid level
@@ -137,7 +139,7 @@ int Map::triangulate(KeyFrame* kf) {
     }
     std::vector<int> best_dist(old.f.size(), 51), best_of(old.f.size(), -1);
     for (std::size_t i = 0; i < kf->f.size(); ++i) {
-      if (kf->point[i] >= 0) continue;
+      if (kf->point[i] >= 0 || (!no_new_point.empty() && no_new_point[i])) continue;
       const Eigen::Vector3d normal = d1[i].cross(base).normalized();  // of the epipolar plane
       const int level = kf->f.keypoints[i].octave;
       BestTwo match;

@@ -91,7 +91,7 @@ struct Map {
 
   // Makes a keyframe from the frame's features: tracked points (point_of) become its observations,
   // close untracked features with depth new points (at least 100 when there are; none where
-  // no_new_point), mono's by triangulation. Returns the points made.
+  // no_new_point), mono's and RGB-D's also by triangulation. Returns the points made.
   int createKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std::vector<std::int64_t> point_of,
                      const cv::Mat& image, int tracked = 0, const std::vector<char>& no_new_point = {});
 
@@ -110,13 +110,15 @@ struct Map {
 
   // Mono and RGB-D (not stereo, decision 0020): new points from kf's untracked features matched
   // with those of the keyframes before it (kTriangulationNeighbours; two were too few to keep a
-  // map through a slow turn) (ORB-SLAM's CreateNewMapPoints, with the keyframes' poses known). Those poses carry the
-  // wheels' metric scale (the first two keyframes are placed by the wheels alone), so the map has it too; a turn on the
-  // spot (a baseline under Estimator.MonoMinBaseline) triangulates nothing, which is how a pure-rotation start is
-  // refused. A pair must lie on the epipolar plane (within 3 sigma of the coarser level, plus 2 mrad for the poses),
-  // match (Hamming <= 50, best clearly before second), meet at a parallax >= Estimator.MonoMinParallax in front of both
-  // cameras and reproject within the mono chi2 gate in both. Returns the points made.
-  int triangulate(KeyFrame* kf);
+  // map through a slow turn) (ORB-SLAM's CreateNewMapPoints, with the keyframes' poses known).
+  // Those poses carry the wheels' metric scale (the first two keyframes are placed by the wheels
+  // alone), so the map has it too; a turn on the spot (a baseline under Estimator.MonoMinBaseline)
+  // triangulates nothing, which is how a pure-rotation start is refused. A pair must lie on the
+  // epipolar plane (within 3 sigma of the coarser level, plus 2 mrad for the poses), match
+  // (Hamming <= 50, best clearly before second), meet at a parallax >= Estimator.MonoMinParallax in
+  // front of both cameras and reproject within the mono chi2 gate in both. None from a feature
+  // where no_new_point (a walker's). Returns the points made.
+  int triangulate(KeyFrame* kf, const std::vector<char>& no_new_point);
 
   void eraseObservations(const MapPoint& p);
   // A point leaves: counted if its kernel had rejected it, its reliability forgotten.
