@@ -94,8 +94,9 @@ Header pnmHeader(const std::vector<unsigned char>& b) {
       }
       ++at;
     }
-    for (; at < b.size() && std::isdigit(b[at]) && value[i] <= 0x7FFFFFFF; ++at)
-      value[i] = value[i] * 10 + (b[at] - '0');
+    // Every digit belongs to this number; its value saturates, as any over kMaxImageSide is refused.
+    for (; at < b.size() && std::isdigit(b[at]); ++at)
+      value[i] = std::min<std::uint64_t>(value[i] * 10 + (b[at] - '0'), 0xFFFFFFFF);
     if (at >= b.size()) return refused("a PNM image cut short (in its header)");
   }
   return {"", value[0], value[1]};

@@ -122,6 +122,9 @@ TEST(ImageFile, AnImageDeclaringTooManyPixelsOrNoneIsRefusedBeforeDecoding) {
             "it declares 2171111x1 pixels; a camera image has 1 to 65535 a side and at most 33554432 (2^25)");
   const std::string digits = "P5 99999999999999999999999 99999999999999999999999 255 ";
   EXPECT_NE(imageProblem({digits.begin(), digits.end()}).find("pixels; a camera image has"), std::string::npos);
+  const std::string long_width = "P5 99999999999999999999999 7 255 ";  // every digit is the width's
+  EXPECT_EQ(imageProblem({long_width.begin(), long_width.end()}),
+            "it declares 4294967295x7 pixels; a camera image has 1 to 65535 a side and at most 33554432 (2^25)");
 }
 
 TEST(ImageFile, OtherFormatsAndHeadersThatDoNotParseAreRefused) {
