@@ -15,6 +15,8 @@ int hammingDistance(const cv::Mat& a, const cv::Mat& b) {
   return cv::hal::normHamming(a.ptr<uchar>(), b.ptr<uchar>(), a.cols);
 }
 
+int hammingDistance(const unsigned char* a, const unsigned char* b) { return cv::hal::normHamming(a, b, 32); }
+
 void Features::buildGrid(int width, int height) {
   cols_ = (width + kCell - 1) / kCell;
   rows_ = (height + kCell - 1) / kCell;

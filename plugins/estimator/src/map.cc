@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "epipolar_index.h"
 #include "rvwo/kernels/barron.h"
 #include "rvwo/tracking/planar_pose.h"
 
@@ -137,18 +138,22 @@ int Map::triangulate(KeyFrame* kf, const std::vector<char>& no_new_point) {
     for (std::size_t j = 0; j < old.f.size(); ++j) {
       if (old.point[j] < 0) free_old.push_back(static_cast<int>(j));
     }
+    const EpipolarIndex index(base, d2, free_old);
+    std::vector<int> near;
     std::vector<int> best_dist(old.f.size(), 51), best_of(old.f.size(), -1);
     for (std::size_t i = 0; i < kf->f.size(); ++i) {
       if (kf->point[i] >= 0 || (!no_new_point.empty() && no_new_point[i])) continue;
       const Eigen::Vector3d normal = d1[i].cross(base).normalized();  // of the epipolar plane
       const int level = kf->f.keypoints[i].octave;
+      index.near(d1[i], tolerance[std::min(level + 1, ctx_.opt.levels - 1)], &near);
+      const unsigned char* descriptor = kf->f.descriptors.ptr<unsigned char>(static_cast<int>(i));
       BestTwo match;
-      for (int j : free_old) {
+      for (int j : near) {
         const int old_level = old.f.keypoints[j].octave;
         if (std::abs(old_level - level) > 1) continue;
         if (std::fabs(normal.dot(d2[j])) > tolerance[std::max(level, old_level)] || d1[i].dot(d2[j]) > cos_min)
           continue;
-        match.offer(hammingDistance(kf->f.descriptors.row(i), old.f.descriptors.row(j)), j);
+        match.offerAnyOrder(hammingDistance(descriptor, old.f.descriptors.ptr<unsigned char>(j)), j);
       }
       if (match.index < 0 || match.best > 50 || match.best > 0.8 * match.second) continue;
       if (match.best < best_dist[match.index]) {

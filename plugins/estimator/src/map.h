@@ -114,7 +114,8 @@ struct Map {
   // Those poses carry the wheels' metric scale (the first two keyframes are placed by the wheels
   // alone), so the map has it too; a turn on the spot (a baseline under Estimator.MonoMinBaseline)
   // triangulates nothing, which is how a pure-rotation start is refused. A pair must lie on the
-  // epipolar plane (within 3 sigma of the coarser level, plus 2 mrad for the poses), match
+  // epipolar plane (within 3 sigma of the coarser level, plus 2 mrad for the poses; an
+  // EpipolarIndex of the older keyframe's rays finds them without a scan of all pairs), match
   // (Hamming <= 50, best clearly before second), meet at a parallax >= Estimator.MonoMinParallax in
   // front of both cameras and reproject within the mono chi2 gate in both. None from a feature
   // where no_new_point (a walker's). Returns the points made.

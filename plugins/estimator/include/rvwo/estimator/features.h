@@ -79,7 +79,8 @@ void patchSads(const cv::Mat& left, const cv::Mat& right, int x, int y, int xr, 
 // depth: CV_16U or CV_32F, the image's size.
 void depthFromImage(const cv::Mat& depth, double depth_factor, double bf, Features* features);
 
-int hammingDistance(const cv::Mat& a, const cv::Mat& b);  // 32-byte rows
+int hammingDistance(const cv::Mat& a, const cv::Mat& b);              // 32-byte rows
+int hammingDistance(const unsigned char* a, const unsigned char* b);  // 32 bytes each
 
 // The closest and the second-closest of the descriptor distances offered, for the ratio test.
 // best starts at the largest distance that may win (e.g. 61: only distances <= 60 are taken).
@@ -92,6 +93,16 @@ struct BestTwo {
       index = i;
     } else if (distance < second) {
       second = distance;
+    }
+  }
+  // As offer, but a tie for the best goes to the lower i: the result is the same in any order of
+  // offers, and equal to offer's in ascending order of i.
+  void offerAnyOrder(int distance, int i) {
+    if (distance == best && index >= 0 && i < index) {
+      second = best;
+      index = i;
+    } else {
+      offer(distance, i);
     }
   }
 };
