@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -77,6 +78,22 @@ TEST(EpipolarIndex, ARayOnTheAxisGetsEveryIndexedRay) {
   index.near(Eigen::Vector3d(0.0, 0.0, -1.0), 0.001, &near);
   std::sort(near.begin(), near.end());
   EXPECT_EQ(near, which);
+}
+
+// A ray that is not finite (a camera model's failure) is neither lost nor allowed to break the
+// index's order; a query that is not finite gets every ray.
+TEST(EpipolarIndex, RaysThatAreNotFiniteAreKeptAndGiven) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Eigen::Vector3d> rays = {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(nan, 0, 1),
+                                             Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, nan)};
+  const EpipolarIndex index(Eigen::Vector3d(0, 0, 0.2), rays, {0, 1, 2, 3});
+  std::vector<int> near;
+  index.near(Eigen::Vector3d(1, 0, 0), 0.01, &near);  // on the plane of ray 0, not of ray 2
+  std::sort(near.begin(), near.end());
+  EXPECT_EQ(near, (std::vector<int>{0, 1, 3}));
+  index.near(Eigen::Vector3d(nan, 0, 0), 0.01, &near);
+  std::sort(near.begin(), near.end());
+  EXPECT_EQ(near, (std::vector<int>{0, 1, 2, 3}));
 }
 
 // Triangulation offers the index's rays in no set order: the match must be the one offer() gives

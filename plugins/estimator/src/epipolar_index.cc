@@ -24,7 +24,13 @@ EpipolarIndex::EpipolarIndex(const Eigen::Vector3d& base, const std::vector<Eige
     double s;
     const double theta = angle(rays[j], &s);
     auto band = std::find_if(bands_.rbegin(), bands_.rend(), [s](const Band& b) { return s >= b.edge; });
-    band->theta.emplace_back(theta, j);
+    // A ray that is not finite goes where every query looks (the first band, scanned whole), at an
+    // angle that keeps the sort's order strict.
+    if (band == bands_.rend() || !std::isfinite(theta)) {
+      bands_.front().theta.emplace_back(0.0, j);
+    } else {
+      band->theta.emplace_back(theta, j);
+    }
   }
   for (Band& band : bands_) std::sort(band.theta.begin(), band.theta.end());
 }
@@ -55,7 +61,7 @@ void EpipolarIndex::near(const Eigen::Vector3d& ray, double tolerance, std::vect
   // A margin far above rounding error keeps every ray the exact test would take.
   const double tol = tolerance + 1e-9;
   for (const Band& band : bands_) {
-    if (s < kOnTheAxis || band.edge <= tol) {
+    if (!(s >= kOnTheAxis) || band.edge <= tol) {  // on the axis, or not finite
       for (const auto& [theta, j] : band.theta) out->push_back(j);
       continue;
     }
