@@ -11,7 +11,7 @@ namespace {
 // Lower edges of the bands of s = |ray x b|: rays near the baseline's axis (the epipole) have wide
 // windows, so they are kept apart from the rest.
 constexpr double kBandEdges[] = {0.0, 0.05, 0.1, 0.2, 0.35, 0.5, 0.7};
-// Below this s a ray's plane is ill-defined (its normal is a rounding error).
+// Below this s a query's angle about the axis is too uncertain to key on: it scans every band.
 constexpr double kOnTheAxis = 1e-3;
 
 }  // namespace
