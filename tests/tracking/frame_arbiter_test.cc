@@ -414,7 +414,8 @@ TEST(FrameArbiter, ARelocalisationIsBelievedOnEnoughAgreementAndOnTheWheelsWay) 
 // Walkers cover most of the view (their landmarks untrusted); the 25 static ones in view agree on
 // a pose 15 cm from the wheels', too few to start a slip or to place the frame. The wheels are
 // doubted from that frame on through the hold while the camera stays blind, and no longer once
-// vision places a frame.
+// vision places a frame. wheelsDoubted() says the same before the frame is settled (a mono host
+// asks it to relocalise a blind frame along the wheels' way).
 TEST(FrameArbiter, LandmarksThatContradictTheWheelsDoubtThemForTheHold) {
   World w;
   const ArbiterOptions options = estimatorOptions(false);
@@ -439,7 +440,9 @@ TEST(FrameArbiter, LandmarksThatContradictTheWheelsDoubtThemForTheHold) {
   for (int k = 1; k <= 90; ++k) {
     t += 1.0 / kFps;
     arbiter.decide(coveredFrame(&w, t, x_wheels, SE2()));
+    const bool asked = arbiter.wheelsDoubted();  // what a host asks before it settles the frame
     const bool doubted = arbiter.settle(false).wheels_doubted;
+    EXPECT_EQ(asked, doubted) << "blind frame " << k;
     if (t - 1.0 < options.hold - 0.05) {
       EXPECT_TRUE(doubted) << "blind frame " << k;
     }
@@ -449,10 +452,12 @@ TEST(FrameArbiter, LandmarksThatContradictTheWheelsDoubtThemForTheHold) {
   }
   // Raised again, then a frame vision places ends it.
   arbiter.decide(e);
+  EXPECT_TRUE(arbiter.wheelsDoubted());  // this frame's own landmarks, before it is settled
   EXPECT_TRUE(arbiter.settle(false).wheels_doubted);
   arbiter.decide(w.frame(t + 1.0 / kFps, x_true, x_true, t, SE2()));
   EXPECT_FALSE(arbiter.settle(true).wheels_doubted);
   arbiter.decide(coveredFrame(&w, t + 2.0 / kFps, x_true, SE2()));
+  EXPECT_FALSE(arbiter.wheelsDoubted());
   EXPECT_FALSE(arbiter.settle(false).wheels_doubted);
 }
 

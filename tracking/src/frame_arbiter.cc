@@ -117,12 +117,12 @@ FrameOutcome FrameArbiter::settle(bool visual) {
   o.held = !visual && !slipping_ && frame_.t - last_slip_t_ <= options_.hold && slip_run_ >= options_.hold_min_frames &&
            (holding_ || frame_.was_slipping);
   holding_ = o.held;
+  o.wheels_doubted = !visual && wheelsDoubted();
   if (visual) {
     doubted_t_ = -1e300;
   } else if (frame_.contradicts_wheels) {
     doubted_t_ = frame_.t;
   }
-  o.wheels_doubted = !visual && frame_.t - doubted_t_ <= options_.hold;
   return o;
 }
 

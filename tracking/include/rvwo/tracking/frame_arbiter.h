@@ -132,6 +132,10 @@ class FrameArbiter {
 
   bool slipping() const { return slipping_; }  // the last decision was a slip
 
+  // Whether landmarks doubt the wheels at the frame decide() last saw: its own contradict them, or
+  // a blind frame's did within hold before it, no frame placed by vision since.
+  bool wheelsDoubted() const { return frame_.contradicts_wheels || frame_.t - doubted_t_ <= options_.hold; }
+
  private:
   struct Seen {
     double t;
