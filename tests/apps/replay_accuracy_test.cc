@@ -434,6 +434,34 @@ TEST(Replay, MonoSlipCaughtByVisionAlonesTrack) {
   fs::remove_all(dir);
 }
 
+// Mono turning on the spot: the draw of `rvwo-sim --randomise --seed 2` (docs/simulator.md), its
+// keys written out so that a change to the draw does not move the test. The slip (7.59-9.58 s)
+// starts with too few landmarks behind vision alone to overrule the wheels, so the frame is blind;
+// the wheels' prediction then leads the projection search off the map, and a blind frame needs
+// more landmarks than mono has here. Those landmarks contradicted the wheels, so the next blind
+// frame looks for the map along the wheels' way back to where vision left the robot, finds it
+// where the robot stood, and the slip is caught from there (docs/decisions/0021). Before: 230
+// frames on the wheels, no slip caught, 6.49 % of the path; measured 0.431 %, 58 slip frames.
+TEST(Replay, MonoBlindAtASlipsStartRelocalisesAlongTheWheelsWay) {
+  const fs::path scenario = rvwo::test::scratch("mono_spin_slip.yaml");
+  std::ofstream(scenario) << "%YAML:1.0\nSequence.Camera: \"mono\"\nSequence.Lens: \"pinhole\"\n"
+                          << "Sequence.Motion: \"file\"\nSequence.MotionFile: \"" << RVWO_SOURCE_DIR
+                          << "/scenarios/motion/tum_fr2_pioneer_360.txt\"\nSequence.MotionSpeed: 0.8145\n"
+                          << "Camera.Fx: 356.6\nCamera.Baseline: 0.05568\nCamera.Exposure: 0.01801\n"
+                          << "Camera.Vignetting: 0.2086\nSequence.PixelNoise: 0.552\nRoom.SizeX: 10.78\n"
+                          << "Room.SizeY: 9.943\nRoom.Height: 2.822\nRoom.Furniture: 3\n"
+                          << "Odometry.RadiusError: -0.008721\nOdometry.TrackError: 0.03702\n"
+                          << "Odometry.NoiseWheel: 0.004173\nWalkers.Count: 0\nWalkers.Escorts: 2\n"
+                          << "Walkers.Speed: 1.264\nEvents.Slip: [7.586, 9.583]\nEvents.Illumination: [4.759, 0.707]\n";
+  const fs::path dir = simulate(scenario.string(), 15, "", 2);
+  Outcome vw;
+  ASSERT_NO_FATAL_FAILURE(replayVw(dir, "mono spin slip vw", &vw));
+  EXPECT_TRUE(slipCaught(vw.out)) << vw.out;
+  EXPECT_EQ(vw.out.find("relocalised: 0;"), std::string::npos) << vw.out;
+  EXPECT_LE(vw.ate, 0.01 * vw.path) << vw.out;
+  fs::remove_all(dir);
+}
+
 // Randomised sequences (rvwo-sim --randomise: motion, speed, room, focal length, baseline, the
 // wheels' calibration, people and events drawn from the seed; docs/simulator.md), none of them
 // seen while the estimator was tuned, 15 s each with a pinhole lens: every frame posed, below the
@@ -444,7 +472,7 @@ TEST(Replay, RandomisedSequencesStayWithinTheirBounds) {
   // Runs that miss their bound today, each a finding of docs/simulator.md ("What the randomised
   // sequences found"): held to the ATE they measured (m), a tenth more at most, until the
   // estimator mends them; then the test says to take them off this list.
-  const std::map<std::pair<std::string, int>, double> known_misses{{{"stereo", 1}, 0.0972}, {{"mono", 2}, 0.1272}};
+  const std::map<std::pair<std::string, int>, double> known_misses{{{"stereo", 1}, 0.0972}};
   const std::vector<int> seeds = fullLength() ? std::vector<int>{1, 2, 3} : std::vector<int>{1};
   for (const std::string camera : {"stereo", "rgbd", "mono"}) {
     for (int seed : seeds) {

@@ -134,7 +134,13 @@ void Tracker::recordSlip(double t, bool spin) {
 
 void Tracker::relocaliseBlindFrame(FrameWork* w) {
   auto t5 = Clock::now();
-  if (const std::optional<Eigen::Vector3d> x_map = relocalise(w->f)) {
+  std::optional<Eigen::Vector3d> x_map;
+  if (ctx_.rig.sensor != Sensor::kMono) {
+    x_map = relocalise(w->f);
+  } else if (arbiter_.wheelsDoubted()) {
+    x_map = alongTheWheelsWay(w->f, w->t);
+  }
+  if (x_map) {
     w->x = *x_map;
     w->matches = searchByProjection(w->f, w->x, 1.0);
     w->matches.erase(
@@ -242,11 +248,17 @@ int Tracker::makeKeyFrame(double t, const Eigen::Vector3d& x, Features&& f, std:
   return made;
 }
 
+const FrameRecord* Tracker::lastVisualFrame(bool slips_too) const {
+  for (auto r = map_.frames.rbegin(); r != map_.frames.rend(); ++r) {
+    if (r->visual && (slips_too || !r->slip)) return &*r;
+  }
+  return nullptr;
+}
+
 bool Tracker::onTheWheelsWay(const Eigen::Vector3d& x, double t) const {
-  std::size_t j = map_.frames.size();
-  while (j > 0 && !(map_.frames[j - 1].visual && !map_.frames[j - 1].slip)) --j;
-  if (j == 0) return true;
-  const FrameRecord& v = map_.frames[j - 1];
+  const FrameRecord* last = lastVisualFrame(false);
+  if (!last) return true;
+  const FrameRecord& v = *last;
   const std::optional<WheelDelta> stretch = wheels_.delta(v.t, t);
   if (!stretch || stretch->t0 > v.t + 1e-6) return true;  // no readings over the whole stretch to hold it to
   return onTheClaimedWay(*stretch, map_.pose(v).inverse() * SE2::fromVector(x));
@@ -291,7 +303,29 @@ void Tracker::finishFrame(const FrameRecord& record, double t) {
   if (callback_) callback_(pe);
 }
 
-std::vector<Match> Tracker::searchByProjection(const Features& f, const Eigen::Vector3d& x, double radius_scale) {
+std::optional<Eigen::Vector3d> Tracker::alongTheWheelsWay(const Features& f, double t) {
+  const FrameRecord* v = lastVisualFrame(true);
+  if (!v) return std::nullopt;
+  const std::optional<WheelDelta> stretch = wheels_.delta(v->t, t);
+  if (!stretch) return std::nullopt;
+  const SE2 T_w_v = map_.pose(*v);
+  std::optional<Eigen::Vector3d> best;
+  int most = ctx_.opt.tracking.min_inliers - 1;
+  for (double s : {0.0, 0.25, 0.5, 0.75}) {  // 1: the wheels' own prediction, searched already
+    const Eigen::Vector3d x = (T_w_v * stretch->pose().fraction(s)).vector();
+    const std::vector<Match> matches = searchByProjection(f, x, 2.0, false);
+    const std::vector<char> trusted = map_.trustedOf(matches);
+    const int n = static_cast<int>(std::count(trusted.begin(), trusted.end(), 1));
+    if (n > most) {
+      most = n;
+      best = x;
+    }
+  }
+  return best;
+}
+
+std::vector<Match> Tracker::searchByProjection(const Features& f, const Eigen::Vector3d& x, double radius_scale,
+                                               bool count_visible) {
   std::vector<Match> matches;
   std::vector<int> best_dist(f.size(), 256);
   std::vector<std::int64_t> best_point(f.size(), -1);
@@ -303,7 +337,7 @@ std::vector<Match> Tracker::searchByProjection(const Features& f, const Eigen::V
     Eigen::Vector3d h;  // (u, v, u_R); mono: (u, v, unused)
     if (!ctx_.predict(x, p.P, &h)) continue;
     if (h.x() < 0 || h.y() < 0 || h.x() >= ctx_.rig.width || h.y() >= ctx_.rig.height) continue;
-    ++p.visible;
+    p.visible += count_visible;
     const int level = predictLevel(p, d);
     const float r = static_cast<float>(ctx_.opt.search_radius * radius_scale * std::pow(ctx_.opt.scale_factor, level));
     BestTwo match;

@@ -68,9 +68,11 @@ class Tracker {
   void recordSlip(double t, bool spin);
 
   // Still blind after a stretch on the wheels: their prediction may be too far off for the
-  // projection search, the map in memory may still be in view. Only trusted landmarks place the
-  // frame (walkers' landmarks a label has seen, still inliers under their kernel, would pull the
-  // pose along); the arbiter says whether the result is believed. (Map lock held.)
+  // projection search, the map in memory may still be in view. Stereo and RGB-D relocalise by
+  // descriptor (relocalise); mono searches along the wheels' way, only while landmarks doubt them
+  // (alongTheWheelsWay). Only trusted landmarks place the frame (walkers' landmarks a label has
+  // seen, still inliers under their kernel, would pull the pose along); the arbiter says whether
+  // the result is believed. (Map lock held.)
   void relocaliseBlindFrame(FrameWork* w);
 
   // Blind right after a slip, the wheels are the last to trust: the arbiter holds the pose where
@@ -100,6 +102,8 @@ class Tracker {
   // last frame vision placed with them (onTheClaimedWay; not a slip frame, which vision alone
   // placed). (Map lock held.)
   bool onTheWheelsWay(const Eigen::Vector3d& x, double t) const;
+  // The last frame vision placed (slips_too: also one vision alone placed, overruling the wheels).
+  const FrameRecord* lastVisualFrame(bool slips_too) const;
 
   // Vision is back after a stretch on the wheels: the map says the pose is C T_wheels (C in the
   // world frame, the wheels' drift while blind). Applied to this frame alone it would be a jump;
@@ -111,7 +115,10 @@ class Tracker {
   void finishFrame(const FrameRecord& record, double t);
 
   // ---- matching and the pose (map lock held) ----
-  std::vector<Match> searchByProjection(const Features& f, const Eigen::Vector3d& x, double radius_scale);
+  // count_visible: each landmark projected into the image counts as visible (for culling); a
+  // search that only probes a pose leaves the counts alone.
+  std::vector<Match> searchByProjection(const Features& f, const Eigen::Vector3d& x, double radius_scale,
+                                        bool count_visible = true);
 
   // Predicted pyramid level of a point seen from distance d.
   int predictLevel(const MapPoint& p, double d) const;
@@ -125,6 +132,12 @@ class Tracker {
   // pose, if 3 x Tracking.MinInliers pairs agree with it, seeds the projection search and the pose
   // optimisation.
   std::optional<Eigen::Vector3d> relocalise(const Features& f) const;
+
+  // Mono's relocalisation (no depth to place features by descriptor): the map is searched from
+  // poses along the way the wheels claimed since vision last placed a frame, from where it left
+  // the robot (the robot stood: a slip) to three quarters of the claim (it crept); the pose with
+  // the most trusted matches, at least Tracking.MinInliers, seeds the search and the pose solve.
+  std::optional<Eigen::Vector3d> alongTheWheelsWay(const Features& f, double t);
 
   // The frame's matches as the pose solver takes them, each with its landmark's kernel.
   std::vector<PoseObservation> poseObservations(const Features& f, const std::vector<Match>& matches) const;
