@@ -284,9 +284,9 @@ TEST(Replay, SlipAmongCloseWalkersRgbdLeavesTheMapWhereItIs) {
 // made for close, new features while vision strains the wheel edge: 0.13 m, 0.16 %. On the
 // first camera's look (no camera effects, cylinders for people), where that rule is what
 // decides: 0.085 %, 6 mm of travel before RGB-D triangulated from motion (decision 0020 has the
-// figures since, and why that leaves the escorts' features out). With real-looking escorts the run is blind for 50 s of
-// the 120 and rides its wheels through the slip (1.84 % with every camera effect off, 1.94 % with
-// them), a finding of its own (docs/simulator.md, session 45).
+// figures since, and why that leaves the escorts' features out). With real-looking escorts the
+// run is blind for 50 s of the 120 and rides its wheels through the slip (1.84 % with every camera
+// effect off, 1.94 % with them), a finding of its own (docs/simulator.md, session 45).
 TEST(Replay, SlipBehindEscortsRgbdMakesNoKeyframesOnTheWheelsWay) {
   RVWO_FULL_LENGTH_ONLY();
   const fs::path scenario = suiteScenario(
