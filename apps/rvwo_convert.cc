@@ -38,8 +38,8 @@
 
 #include "convert/lists.h"
 #include "convert/presets.h"
+#include "rvwo/semantics/image_file.h"
 #include "support/command_line.h"
-#include "support/image_file.h"
 #include "support/output.h"
 #include "support/rawlog.h"
 #include "support/trajectory.h"
@@ -58,7 +58,7 @@ using rvwo::apps::readOpenLorisOdometry;
 mrpt::obs::CObservation3DRangeScan rgbd(const Entry& rgb, const Entry& depth, double units_per_metre) {
   cv::Mat d;
   try {
-    d = rvwo::apps::readImageFile(depth.path, cv::IMREAD_UNCHANGED);
+    d = rvwo::readImageFile(depth.path, cv::IMREAD_UNCHANGED);
   } catch (const std::runtime_error& e) {
     fail(depth.where, e.what());
   }

@@ -17,10 +17,10 @@
 #include <sstream>
 
 #include "rvwo/kernels/semantic_priors.h"
+#include "rvwo/semantics/image_file.h"
 #include "rvwo/semantics/onnx_segmenter.h"
 #include "rvwo/semantics/shipped_model.h"
 #include "support/command_line.h"
-#include "support/image_file.h"
 
 namespace {
 
@@ -136,7 +136,7 @@ int segmentImage(SegmentArgs& args) {
   const std::string& image = args.image.getValue();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(image, ec)) throw std::runtime_error("image '" + image + "' not found");
-  const cv::Mat img = rvwo::apps::readImageFile(image, cv::IMREAD_COLOR);
+  const cv::Mat img = rvwo::readImageFile(image, cv::IMREAD_COLOR);
   rvwo::Segmentation s = seg.segment(img);  // warm-up, not timed
   const int repeat = args.repeat.getValue();
   const auto t0 = std::chrono::steady_clock::now();

@@ -15,7 +15,7 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "image_file.h"
+#include "rvwo/semantics/image_file.h"
 
 namespace rvwo::apps {
 

@@ -7,6 +7,8 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "rvwo/semantics/image_file.h"
+
 namespace rvwo {
 
 cv::Mat toBgr(const cv::Mat& image) {
@@ -49,8 +51,13 @@ Segmentation LabelImageSegmenter::segment(const cv::Mat& image, const FrameInfo&
     throw std::runtime_error("label images: none within " + std::to_string(tolerance_) +
                              " s of t=" + std::to_string(info.timestamp));
   }
-  const cv::Mat raw = cv::imread(best->second, cv::IMREAD_UNCHANGED);
-  if (raw.empty() || raw.channels() != 1) {
+  cv::Mat raw;
+  try {
+    raw = readImageFile(best->second, cv::IMREAD_UNCHANGED);  // checked first: no libpng text on stderr
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(std::string("label images: ") + e.what());
+  }
+  if (raw.channels() != 1) {
     throw std::runtime_error("label images: cannot read '" + best->second + "' as a one-channel image");
   }
   if (!image.empty() && raw.size() != image.size()) {

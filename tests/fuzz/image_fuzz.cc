@@ -7,12 +7,12 @@
 #include <stdexcept>
 
 #include "fuzz_input.h"
-#include "support/image_file.h"
+#include "rvwo/semantics/image_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string path = rvwo::fuzz::asFile(data, size, "image");
   try {
-    rvwo::apps::readImageFile(path, cv::IMREAD_UNCHANGED);
+    rvwo::readImageFile(path, cv::IMREAD_UNCHANGED);
   } catch (const std::runtime_error&) {
   }
   return 0;

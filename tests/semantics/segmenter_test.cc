@@ -12,7 +12,9 @@
 #include <fstream>
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "../common/temp.h"
 #include "rvwo/kernels/semantic_priors.h"
@@ -164,6 +166,30 @@ TEST(LabelImageSegmenter, NearestTimestampAndValueMapping) {
   EXPECT_THROW(seg.segment(cv::Mat(4, 6, CV_8UC3), {8, 100.3}), std::runtime_error);  // none within 50 ms
   EXPECT_THROW(seg.segment(cv::Mat(5, 6, CV_8UC3), {9, 100.0}), std::runtime_error);  // wrong size
   EXPECT_THROW(LabelImageSegmenter((dir / "nope").string(), {"x"}), std::invalid_argument);
+}
+
+// A damaged label image is refused in the reader's words (rvwo/semantics/image_file.h), naming the
+// file; libpng prints nothing of its own.
+TEST(LabelImageSegmenter, DamagedLabelImageIsRefusedInOneLineOfOurs) {
+  const fs::path dir = rvwo::test::scratch("rvwo_label_images_damaged");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::vector<unsigned char> png;
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(4, 6, CV_8U, cv::Scalar(1)), png));
+  png.resize(8 + 25);  // its signature and header chunk (IHDR), then nothing
+  const fs::path file = dir / "100.000000.png";
+  std::ofstream(file, std::ios::binary)
+      .write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+  LabelImageSegmenter seg(dir.string(), {"background", "person"});
+  testing::internal::CaptureStderr();
+  try {
+    seg.segment(cv::Mat(4, 6, CV_8UC3), {1, 100.0});
+    ADD_FAILURE() << "labels from a damaged PNG";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "label images: cannot read image " + file.string() + ": a PNG cut short (at byte 33, before IEND)");
+  }
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
 }
 
 TEST(LabelLookup, DilatesAroundDynamicClasses) {

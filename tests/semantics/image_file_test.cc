@@ -2,7 +2,7 @@
 // Image files are checked before OpenCV decodes them: a PNG cut short or with a damaged chunk, and
 // a JPEG cut short, are refused in one line of ours, and OpenCV's decoders print nothing (libpng
 // would print "libpng error: ..." on stderr); whole files decode as OpenCV reads them.
-#include "support/image_file.h"
+#include "rvwo/semantics/image_file.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -18,7 +18,7 @@
 
 #include "../common/temp.h"
 
-namespace rvwo::apps {
+namespace rvwo {
 namespace {
 
 std::vector<unsigned char> encoded(const std::string& ext) {
@@ -180,4 +180,4 @@ TEST(ImageFile, AJpegCutShortAnEmptyFileAndNoImageAreRefused) {
 }
 
 }  // namespace
-}  // namespace rvwo::apps
+}  // namespace rvwo

@@ -1,5 +1,5 @@
 // Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
-#include "image_file.h"
+#include "rvwo/semantics/image_file.h"
 
 #include <zlib.h>
 
@@ -10,7 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
-namespace rvwo::apps {
+namespace rvwo {
 
 namespace {
 
@@ -142,4 +142,4 @@ cv::Mat readImageFile(const std::string& path, int flags) {
   return m;
 }
 
-}  // namespace rvwo::apps
+}  // namespace rvwo

@@ -8,7 +8,8 @@
 //   has no checksum: damage inside it cannot be told);
 // - a PNM (P1 to P6: PBM, PGM, PPM) must hold a header that parses;
 // - each must declare 1 to kMaxImageSide pixels a side, kMaxImagePixels in all.
-// Other formats are refused.
+// Other formats are refused. The apps read every image file through it, and so does
+// LabelImageSegmenter.
 #pragma once
 
 #include <cstdint>
@@ -16,7 +17,7 @@
 #include <string>
 #include <vector>
 
-namespace rvwo::apps {
+namespace rvwo {
 
 // The most pixels an image file may declare: 2^25 (33.5 megapixels, 8192 x 4096), above any
 // robot camera's, and at 8 bytes a pixel (16-bit RGBA) 256 MiB to decode; and on a side, a
@@ -32,4 +33,4 @@ std::string imageProblem(const std::vector<unsigned char>& bytes);
 // format, or not decodable.
 cv::Mat readImageFile(const std::string& path, int flags);
 
-}  // namespace rvwo::apps
+}  // namespace rvwo
