@@ -24,9 +24,8 @@ Se2XyzEdge<N>::Se2XyzEdge(const CameraModel& camera, const Eigen::Isometry3d& T_
 }
 
 template <int N>
-bool Se2XyzEdge<N>::project(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, Vector* h,
+bool Se2XyzEdge<N>::project(const Eigen::Vector3d& x_w_b, double c, double s, const Eigen::Vector3d& P_w, Vector* h,
                             Eigen::Matrix<double, N, 3>* dh_dPb, Eigen::Vector3d* P_b) const {
-  const double c = std::cos(x_w_b.z()), s = std::sin(x_w_b.z());
   const double dx = P_w.x() - x_w_b.x(), dy = P_w.y() - x_w_b.y();
   *P_b = Eigen::Vector3d(c * dx + s * dy, -s * dx + c * dy, P_w.z());  // eq. 8: R_w_b^T (P_w - p_w_b)
   const Eigen::Vector3d P_c = R_c_b_ * *P_b + p_c_b_;
@@ -58,9 +57,9 @@ bool Se2XyzEdge<N>::predict(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d&
   Eigen::Matrix<double, N, 3> M;
   Eigen::Vector3d P_b;
   const bool need = J_pose || J_point;
-  if (!project(x_w_b, P_w, h, need ? &M : nullptr, &P_b)) return false;
-  if (J_pose || J_point) {
-    const double c = std::cos(x_w_b.z()), s = std::sin(x_w_b.z());
+  const double c = std::cos(x_w_b.z()), s = std::sin(x_w_b.z());
+  if (!project(x_w_b, c, s, P_w, h, need ? &M : nullptr, &P_b)) return false;
+  if (need) {
     Eigen::Matrix3d R_b_w;  // R_w_b^T
     R_b_w << c, s, 0, -s, c, 0, 0, 0, 1;
     if (J_point) *J_point = M * R_b_w;  // eq. 9
@@ -87,7 +86,7 @@ typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::covariance(const Eigen::Vector
   Vector h;
   Eigen::Matrix<double, N, 3> M;
   Eigen::Vector3d P_b;
-  if (!project(x_w_b, P_w, &h, &M, &P_b)) return cov;
+  if (!project(x_w_b, std::cos(x_w_b.z()), std::sin(x_w_b.z()), P_w, &h, &M, &P_b)) return cov;
   // [P_b]x columns 0 and 1: d P_b / d(roll, pitch).
   Eigen::Matrix<double, 3, 2> dPb_drp;
   dPb_drp << 0.0, -P_b.z(), P_b.z(), 0.0, -P_b.y(), P_b.x();

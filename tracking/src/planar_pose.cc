@@ -51,6 +51,16 @@ bool chi2Of(const Se2XyzEdge<N>& edge, const PoseObservation& o, const Eigen::Ve
   return true;
 }
 
+// chi2Of, keeping the square-root information it used in *S (set only when the match projects).
+template <int N>
+void whitenedChi2At(const Se2XyzEdge<N>& edge, const PoseObservation& o, const Eigen::Vector3d& x,
+                    const OutOfPlaneNoise& noise, Eigen::Matrix<double, N, N>* S, double* out) {
+  Eigen::Matrix<double, N, 1> r;
+  if (!edge.residual(x, o.P_w, o.z.head<N>(), &r)) return;
+  *S = edge.sqrtInformation(x, o.P_w, o.sigma_px, noise);
+  *out = (*S * r).squaredNorm();
+}
+
 }  // namespace
 
 bool whitenedChi2(const Se2XyzMonoEdge& mono, const Se2XyzStereoEdge* stereo, const PoseObservation& o,
@@ -84,7 +94,8 @@ PlanarPoseResult optimisePlanarPose(const Se2XyzMonoEdge& mono, const Se2XyzSter
   std::vector<Eigen::Matrix2d> S2(n);
   for (int round = 0; round < opt.rounds; ++round) {
     // Square-root information at this round's linearisation point (eq. 10, out-of-plane inflation).
-    for (std::size_t k = 0; k < n; ++k) {
+    // After the first round, the last classification computed it at this same point.
+    for (std::size_t k = 0; k < n && round == 0; ++k) {
       if (!usable[k]) continue;
       if (obs[k].stereo) {
         S3[k] = stereo->sqrtInformation(*x, obs[k].P_w, obs[k].sigma_px, opt.out_of_plane);
@@ -117,11 +128,16 @@ PlanarPoseResult optimisePlanarPose(const Se2XyzMonoEdge& mono, const Se2XyzSter
       x->z() = wrapAngle(x->z());
       if (dx.head<2>().norm() < 1e-6 && std::fabs(dx.z()) < 1e-7) break;
     }
-    // Classify against the gate (every match, so that a rejected one may come back).
+    // Classify against the gate (every match, so that a rejected one may come back), keeping the
+    // square-root information for the next round: only a match that projects can be an inlier.
     out.inliers = 0;
     for (std::size_t k = 0; k < n; ++k) {
       double e2 = 1e9;
-      whitenedChi2(mono, stereo, obs[k], *x, opt.out_of_plane, &e2);
+      if (obs[k].stereo) {
+        whitenedChi2At(*stereo, obs[k], *x, opt.out_of_plane, &S3[k], &e2);
+      } else {
+        whitenedChi2At(mono, obs[k], *x, opt.out_of_plane, &S2[k], &e2);
+      }
       out.error[k] = std::sqrt(e2);
       out.inlier[k] = usable[k] && e2 <= chi2Gate(obs[k].stereo);
       out.inliers += out.inlier[k];

@@ -68,9 +68,9 @@ class Se2XyzEdge {
   const Eigen::Isometry3d& T_b_c() const { return T_b_c_; }
 
  private:
-  // h, dh/dP_b and P_b.
-  bool project(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, Vector* h, Eigen::Matrix<double, N, 3>* dh_dPb,
-               Eigen::Vector3d* P_b) const;
+  // h, dh/dP_b and P_b; c, s: cos and sin of x_w_b's heading (computed once by the caller).
+  bool project(const Eigen::Vector3d& x_w_b, double c, double s, const Eigen::Vector3d& P_w, Vector* h,
+               Eigen::Matrix<double, N, 3>* dh_dPb, Eigen::Vector3d* P_b) const;
   const CameraModel* camera_;
   Eigen::Isometry3d T_b_c_;
   Eigen::Matrix3d R_c_b_;
