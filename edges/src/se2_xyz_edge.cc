@@ -82,11 +82,19 @@ bool Se2XyzEdge<N>::residual(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d
 template <int N>
 typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::covariance(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w,
                                                              double sigma_px, const OutOfPlaneNoise& noise) const {
-  Covariance cov = sigma_px * sigma_px * Covariance::Identity();
   Vector h;
   Eigen::Matrix<double, N, 3> M;
   Eigen::Vector3d P_b;
-  if (!project(x_w_b, std::cos(x_w_b.z()), std::sin(x_w_b.z()), P_w, &h, &M, &P_b)) return cov;
+  if (!project(x_w_b, std::cos(x_w_b.z()), std::sin(x_w_b.z()), P_w, &h, &M, &P_b))
+    return sigma_px * sigma_px * Covariance::Identity();
+  return inflated(M, P_b, sigma_px, noise);
+}
+
+template <int N>
+typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::inflated(const Eigen::Matrix<double, N, 3>& M,
+                                                           const Eigen::Vector3d& P_b, double sigma_px,
+                                                           const OutOfPlaneNoise& noise) {
+  Covariance cov = sigma_px * sigma_px * Covariance::Identity();
   // [P_b]x columns 0 and 1: d P_b / d(roll, pitch).
   Eigen::Matrix<double, 3, 2> dPb_drp;
   dPb_drp << 0.0, -P_b.z(), P_b.z(), 0.0, -P_b.y(), P_b.x();
@@ -101,9 +109,25 @@ template <int N>
 typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::sqrtInformation(const Eigen::Vector3d& x_w_b,
                                                                   const Eigen::Vector3d& P_w, double sigma_px,
                                                                   const OutOfPlaneNoise& noise) const {
-  const Eigen::LLT<Covariance> llt(covariance(x_w_b, P_w, sigma_px, noise));
+  return whitener(covariance(x_w_b, P_w, sigma_px, noise));
+}
+
+template <int N>
+typename Se2XyzEdge<N>::Covariance Se2XyzEdge<N>::whitener(const Covariance& cov) {
+  const Eigen::LLT<Covariance> llt(cov);
   // Sigma = L L^T, so S = L^-1 whitens: S^T S = Sigma^-1.
   return llt.matrixL().solve(Covariance::Identity());
+}
+
+template <int N>
+bool Se2XyzEdge<N>::whitening(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, const Vector& z,
+                              double sigma_px, const OutOfPlaneNoise& noise, Vector* r, Covariance* S) const {
+  Eigen::Matrix<double, N, 3> M;
+  Eigen::Vector3d P_b;
+  if (!project(x_w_b, std::cos(x_w_b.z()), std::sin(x_w_b.z()), P_w, r, &M, &P_b)) return false;
+  *r -= z;
+  *S = whitener(inflated(M, P_b, sigma_px, noise));
+  return true;
 }
 
 template class Se2XyzEdge<2>;

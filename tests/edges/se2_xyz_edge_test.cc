@@ -151,5 +151,43 @@ void monteCarloInflation(unsigned seed) {
 TEST(Se2XyzEdge, OutOfPlaneInflationMatchesMonteCarloMono) { monteCarloInflation<2>(20); }
 TEST(Se2XyzEdge, OutOfPlaneInflationMatchesMonteCarloStereo) { monteCarloInflation<3>(21); }
 
+// whitening() is residual() and sqrtInformation() at one point, bit for bit (the pose solver's
+// rounds rely on it), and refuses what residual() refuses.
+template <int N>
+void checkWhitening(const CameraModel& cam, double bf, unsigned seed) {
+  const Eigen::Isometry3d T_b_c = test::forwardCamera();
+  const Se2XyzEdge<N> edge(cam, T_b_c, bf);
+  OutOfPlaneNoise noise;
+  noise.sigma_z = 0.01;
+  noise.sigma_rollpitch << 1e-4, 2e-5, 2e-5, 2e-4;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-10, 10);
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d x = test::randomPose(u, rng, i);
+    const Eigen::Vector3d P_w = visiblePoint(rng, x, T_b_c);
+    const typename Se2XyzEdge<N>::Vector z = Se2XyzEdge<N>::Vector::Random() * 300;
+    typename Se2XyzEdge<N>::Vector r, r_want;
+    typename Se2XyzEdge<N>::Covariance S;
+    ASSERT_TRUE(edge.whitening(x, P_w, z, 1.44, noise, &r, &S));
+    ASSERT_TRUE(edge.residual(x, P_w, z, &r_want));
+    EXPECT_EQ(r, r_want);
+    EXPECT_EQ(S, edge.sqrtInformation(x, P_w, 1.44, noise));
+  }
+  // A point behind the robot: a pinhole refuses it, a fisheye lens may see it; as residual() says.
+  const Eigen::Vector3d behind(-5, 0, 0.3);
+  typename Se2XyzEdge<N>::Vector r, r_want;
+  typename Se2XyzEdge<N>::Covariance S;
+  const bool projects = edge.residual(Eigen::Vector3d::Zero(), behind, Se2XyzEdge<N>::Vector::Zero(), &r_want);
+  EXPECT_EQ(edge.whitening(Eigen::Vector3d::Zero(), behind, Se2XyzEdge<N>::Vector::Zero(), 1.0, noise, &r, &S),
+            projects);
+  if (cam.kind() == CameraModel::Kind::kPinhole) EXPECT_FALSE(projects);
+}
+
+TEST(Se2XyzEdge, WhiteningIsTheResidualAndTheSqrtInformation) {
+  checkWhitening<2>(PinholeCamera(500, 500, 320, 240), 0.0, 30);
+  checkWhitening<2>(KannalaBrandtCamera(286, 286, 424, 400, 0.01, -0.02, 0.003, -0.001), 0.0, 31);
+  checkWhitening<3>(PinholeCamera(500, 500, 320, 240), 0.12 * 500, 32);
+}
+
 }  // namespace
 }  // namespace rvwo

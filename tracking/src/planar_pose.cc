@@ -56,8 +56,7 @@ template <int N>
 void whitenedChi2At(const Se2XyzEdge<N>& edge, const PoseObservation& o, const Eigen::Vector3d& x,
                     const OutOfPlaneNoise& noise, Eigen::Matrix<double, N, N>* S, double* out) {
   Eigen::Matrix<double, N, 1> r;
-  if (!edge.residual(x, o.P_w, o.z.head<N>(), &r)) return;
-  *S = edge.sqrtInformation(x, o.P_w, o.sigma_px, noise);
+  if (!edge.whitening(x, o.P_w, o.z.head<N>(), o.sigma_px, noise, &r, S)) return;
   *out = (*S * r).squaredNorm();
 }
 

@@ -64,6 +64,11 @@ class Se2XyzEdge {
   Covariance sqrtInformation(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, double sigma_px,
                              const OutOfPlaneNoise& noise) const;
 
+  // residual() and sqrtInformation() at one point, from one projection. False when the point
+  // cannot be projected (r and S are then left unspecified).
+  bool whitening(const Eigen::Vector3d& x_w_b, const Eigen::Vector3d& P_w, const Vector& z, double sigma_px,
+                 const OutOfPlaneNoise& noise, Vector* r, Covariance* S) const;
+
   const CameraModel& camera() const { return *camera_; }
   const Eigen::Isometry3d& T_b_c() const { return T_b_c_; }
 
@@ -71,6 +76,10 @@ class Se2XyzEdge {
   // h, dh/dP_b and P_b; c, s: cos and sin of x_w_b's heading (computed once by the caller).
   bool project(const Eigen::Vector3d& x_w_b, double c, double s, const Eigen::Vector3d& P_w, Vector* h,
                Eigen::Matrix<double, N, 3>* dh_dPb, Eigen::Vector3d* P_b) const;
+  // covariance() from the projection's dh/dP_b and P_b.
+  static Covariance inflated(const Eigen::Matrix<double, N, 3>& M, const Eigen::Vector3d& P_b, double sigma_px,
+                             const OutOfPlaneNoise& noise);
+  static Covariance whitener(const Covariance& cov);  // L^-1 of cov = L L^T
   const CameraModel* camera_;
   Eigen::Isometry3d T_b_c_;
   Eigen::Matrix3d R_c_b_;
