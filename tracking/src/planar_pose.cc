@@ -42,22 +42,17 @@ bool accumulate(const Se2XyzEdge<N>& edge, const PoseObservation& o, const Eigen
   return true;
 }
 
+// The match's whitened squared error at x, from one projection; with S_out, the square-root
+// information it used (set only when the match projects, as only such a match can be an inlier).
 template <int N>
 bool chi2Of(const Se2XyzEdge<N>& edge, const PoseObservation& o, const Eigen::Vector3d& x, const OutOfPlaneNoise& noise,
-            double* out) {
+            double* out, Eigen::Matrix<double, N, N>* S_out = nullptr) {
   Eigen::Matrix<double, N, 1> r;
-  if (!edge.residual(x, o.P_w, o.z.head<N>(), &r)) return false;
-  *out = (edge.sqrtInformation(x, o.P_w, o.sigma_px, noise) * r).squaredNorm();
+  Eigen::Matrix<double, N, N> S;
+  if (!edge.whitening(x, o.P_w, o.z.head<N>(), o.sigma_px, noise, &r, &S)) return false;
+  *out = (S * r).squaredNorm();
+  if (S_out) *S_out = S;
   return true;
-}
-
-// chi2Of, keeping the square-root information it used in *S (set only when the match projects).
-template <int N>
-void whitenedChi2At(const Se2XyzEdge<N>& edge, const PoseObservation& o, const Eigen::Vector3d& x,
-                    const OutOfPlaneNoise& noise, Eigen::Matrix<double, N, N>* S, double* out) {
-  Eigen::Matrix<double, N, 1> r;
-  if (!edge.whitening(x, o.P_w, o.z.head<N>(), o.sigma_px, noise, &r, S)) return;
-  *out = (*S * r).squaredNorm();
 }
 
 }  // namespace
@@ -94,12 +89,14 @@ PlanarPoseResult optimisePlanarPose(const Se2XyzMonoEdge& mono, const Se2XyzSter
   for (int round = 0; round < opt.rounds; ++round) {
     // Square-root information at this round's linearisation point (eq. 10, out-of-plane inflation).
     // After the first round, the last classification computed it at this same point.
-    for (std::size_t k = 0; k < n && round == 0; ++k) {
-      if (!usable[k]) continue;
-      if (obs[k].stereo) {
-        S3[k] = stereo->sqrtInformation(*x, obs[k].P_w, obs[k].sigma_px, opt.out_of_plane);
-      } else {
-        S2[k] = mono.sqrtInformation(*x, obs[k].P_w, obs[k].sigma_px, opt.out_of_plane);
+    if (round == 0) {
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!usable[k]) continue;
+        if (obs[k].stereo) {
+          S3[k] = stereo->sqrtInformation(*x, obs[k].P_w, obs[k].sigma_px, opt.out_of_plane);
+        } else {
+          S2[k] = mono.sqrtInformation(*x, obs[k].P_w, obs[k].sigma_px, opt.out_of_plane);
+        }
       }
     }
     for (int it = 0; it < opt.iterations; ++it) {
@@ -128,14 +125,14 @@ PlanarPoseResult optimisePlanarPose(const Se2XyzMonoEdge& mono, const Se2XyzSter
       if (dx.head<2>().norm() < 1e-6 && std::fabs(dx.z()) < 1e-7) break;
     }
     // Classify against the gate (every match, so that a rejected one may come back), keeping the
-    // square-root information for the next round: only a match that projects can be an inlier.
+    // square-root information for the next round.
     out.inliers = 0;
     for (std::size_t k = 0; k < n; ++k) {
       double e2 = 1e9;
       if (obs[k].stereo) {
-        whitenedChi2At(*stereo, obs[k], *x, opt.out_of_plane, &S3[k], &e2);
+        chi2Of(*stereo, obs[k], *x, opt.out_of_plane, &e2, &S3[k]);
       } else {
-        whitenedChi2At(mono, obs[k], *x, opt.out_of_plane, &S2[k], &e2);
+        chi2Of(mono, obs[k], *x, opt.out_of_plane, &e2, &S2[k]);
       }
       out.error[k] = std::sqrt(e2);
       out.inlier[k] = usable[k] && e2 <= chi2Gate(obs[k].stereo);
