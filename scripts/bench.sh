@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # RVWO's performance table, in one run on one machine (docs/performance.md keeps one):
-#   bash scripts/bench.sh [--duration S] [--cpus LIST] [--orbslam3 VOC [--build B]] [--out DIR]
+#   bash scripts/bench.sh [--duration S] [--cpus LIST] [--realtime X] [--cameras LIST]
+#                         [--orbslam3 VOC [--build B]] [--out DIR]
 # Simulates the `dynamic` scenario (walkers, with their label images) for each camera: stereo
 # pinhole 640x480, stereo fisheye 848x800, RGB-D, mono; all at 30 Hz. Replays each with everything
 # on (--mode vw, adaptive kernels, semantics from the labels, threads) as fast as it goes, and
@@ -10,17 +11,23 @@
 # (rvwo_bench_kernels). Timings from two runs of this script compare only on one idle machine.
 #   --duration S   seconds simulated per camera (default 60)
 #   --cpus LIST    run the replays under taskset -c LIST (e.g. 0: the tracking bound on one core)
+#   --realtime X   feed the records X times as fast as recorded (default 0: as fast as it goes; 1: as
+#                  a camera would, which is how the one-core tracking bound is meant)
+#   --cameras LIST the cameras, of stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole (default all)
 #   --orbslam3 VOC also ORB-SLAM3 (rvwo-replay --backend orbslam3 from build dir B, configured with
 #                  ORB_SLAM3_ROOT), flat out, without the wheels (as upstream) and with them
 #   --out DIR      sequences and reports (default out/bench); the table is DIR/table.md
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
-duration=60 cpus="" voc="" build=build out=out/bench
+duration=60 cpus="" voc="" build=build out=out/bench realtime=0
+all_cameras="stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole" cameras=$all_cameras
 while [ $# -gt 0 ]; do
   case "$1" in
     --duration) duration=$2; shift 2 ;;
     --cpus) cpus=$2; shift 2 ;;
+    --realtime) realtime=$2; shift 2 ;;
+    --cameras) cameras=$2; shift 2 ;;
     --orbslam3) voc=$2; shift 2 ;;
     --build) build=${2%/}; shift 2 ;;
     --out) out=${2%/}; shift 2 ;;
@@ -28,6 +35,13 @@ while [ $# -gt 0 ]; do
   esac
 done
 [[ $duration =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "bench: --duration takes seconds" >&2; exit 2; }
+[[ $realtime =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "bench: --realtime takes a factor (0: flat out)" >&2; exit 2; }
+for cam in $cameras; do
+  case "$cam" in
+    stereo:pinhole | stereo:fisheye | rgbd:pinhole | mono:pinhole) ;;
+    *) echo "bench: --cameras: $cam is not one of stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole" >&2; exit 2 ;;
+  esac
+done
 if [ -n "$voc" ] && [ ! -f "$voc" ]; then echo "bench: no vocabulary $voc" >&2; exit 2; fi
 if [ ! -x "$build/apps/rvwo-replay" ]; then
   bash scripts/setup.sh
@@ -50,7 +64,7 @@ table="$out/table.md"
 {
   echo "Commit $(git rev-parse --short HEAD)$(git diff --quiet HEAD -- . ':!out' || echo ' (with changes)'), $(date -u +%Y-%m-%d)," \
     "$(nproc) CPUs ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'))${cpus:+, taskset -c $cpus}:" \
-    "\`bash scripts/bench.sh --duration $duration${cpus:+ --cpus $cpus}\`"
+    "\`bash scripts/bench.sh --duration $duration${cpus:+ --cpus $cpus}$([ "$realtime" = 0 ] || echo " --realtime $realtime")$([ "$cameras" = "$all_cameras" ] || echo " --cameras '$cameras'")\`"
   echo
   echo "| run | x real time | frames/s | CPU s per s | tracking ms p50/p95/max | features p95 | local BA ms p50/p95 | peak MB | keyframes | map kf / points | ATE % path |"
   echo "|---|---|---|---|---|---|---|---|---|---|---|"
@@ -75,7 +89,7 @@ row() {  # name, report
   echo "| $1 | $x | $fps | $per | $track | $(stage "$r" features | cut -d/ -f2) | ${ba:--} | $mem | ${kfs:--} | ${map:--} | ${ate:--} |" >>"$table"
 }
 
-for cam in stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole; do
+for cam in $cameras; do
   camera=${cam%%:*} lens=${cam##*:} name=${cam/:/-}
   seq="$out/$name"
   if [ "$(cat "$seq/bench-duration" 2>/dev/null)" != "$duration" ]; then  # made before, of this length
@@ -84,15 +98,16 @@ for cam in stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole; do
       --duration "$duration" --out "$seq"
     echo "$duration" >"$seq/bench-duration"
   fi
-  args=(--quiet --settings "$seq/settings.yaml" --rawlog "$seq/sequence.rawlog" --gt "$seq/groundtruth.txt")
+  args=(--quiet --settings "$seq/settings.yaml" --rawlog "$seq/sequence.rawlog" --gt "$seq/groundtruth.txt"
+    --realtime "$realtime")
   echo "bench: replaying $name" >&2
-  "${pin[@]}" "$build/apps/rvwo-replay" "${args[@]}" --realtime 0 --out "$seq/rvwo.txt" >"$seq/rvwo.log"
+  "${pin[@]}" "$build/apps/rvwo-replay" "${args[@]}" --out "$seq/rvwo.txt" >"$seq/rvwo.log"
   row "RVWO, $name" "$seq/rvwo.log"
   if [ -n "$voc" ] && [ "$lens" = pinhole ]; then
     for mode in vo vw; do
       echo "bench: replaying $name through ORB-SLAM3, --mode $mode" >&2
-      "${pin[@]}" "$build/apps/rvwo-replay" "${args[@]}" --backend orbslam3 --vocabulary "$voc" --mode "$mode" \
-        --realtime 0 --out "$seq/orbslam3-$mode.txt" >"$seq/orbslam3-$mode.log"
+      "${pin[@]}" "$build/apps/rvwo-replay" "${args[@]}" --backend orbslam3 --vocabulary "$voc" \
+        --mode "$mode" --out "$seq/orbslam3-$mode.txt" >"$seq/orbslam3-$mode.log"
       row "ORB-SLAM3 $([ $mode = vo ] && echo upstream || echo 'with RVWO'), $name" "$seq/orbslam3-$mode.log"
     done
   fi
