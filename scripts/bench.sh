@@ -4,18 +4,19 @@
 #                         [--orbslam3 VOC [--build B]] [--out DIR]
 # Simulates the `dynamic` scenario (walkers, with their label images) for each camera: stereo
 # pinhole 640x480, stereo fisheye 848x800, RGB-D, mono; all at 30 Hz. Replays each with everything
-# on (--mode vw, adaptive kernels, semantics from the labels, threads) as fast as it goes, and
+# on (--mode vw, adaptive kernels, semantics from the labels, threads) as fast as it goes (or at
+# --realtime's pace), and
 # prints a Markdown table from rvwo-replay's report: real-time factor, frames/s, CPU-seconds a
 # second of data, the tracking thread's time a frame (p50/p95/max), features and local BA, peak
 # memory, the map at the end and the ATE. Then the kernel against Ceres' own losses
 # (rvwo_bench_kernels). Timings from two runs of this script compare only on one idle machine.
 #   --duration S   seconds simulated per camera (default 60)
 #   --cpus LIST    run the replays under taskset -c LIST (e.g. 0: the tracking bound on one core)
-#   --realtime X   feed the records X times as fast as recorded (default 0: as fast as it goes; 1: as
-#                  a camera would, which is how the one-core tracking bound is meant)
-#   --cameras LIST the cameras, of stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole (default all)
+#   --realtime X   every replay fed X times as fast as recorded (default 0: as fast as it goes; 1: at
+#                  the camera's pace, as on a robot)
+#   --cameras LIST some of stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole (default all four)
 #   --orbslam3 VOC also ORB-SLAM3 (rvwo-replay --backend orbslam3 from build dir B, configured with
-#                  ORB_SLAM3_ROOT), flat out, without the wheels (as upstream) and with them
+#                  ORB_SLAM3_ROOT), without the wheels (as upstream) and with them
 #   --out DIR      sequences and reports (default out/bench); the table is DIR/table.md
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -36,11 +37,9 @@ while [ $# -gt 0 ]; do
 done
 [[ $duration =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "bench: --duration takes seconds" >&2; exit 2; }
 [[ $realtime =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "bench: --realtime takes a factor (0: flat out)" >&2; exit 2; }
+[ -n "${cameras// /}" ] || { echo "bench: --cameras takes at least one of: $all_cameras" >&2; exit 2; }
 for cam in $cameras; do
-  case "$cam" in
-    stereo:pinhole | stereo:fisheye | rgbd:pinhole | mono:pinhole) ;;
-    *) echo "bench: --cameras: $cam is not one of stereo:pinhole stereo:fisheye rgbd:pinhole mono:pinhole" >&2; exit 2 ;;
-  esac
+  [[ " $all_cameras " == *" $cam "* ]] || { echo "bench: --cameras: $cam is not one of: $all_cameras" >&2; exit 2; }
 done
 if [ -n "$voc" ] && [ ! -f "$voc" ]; then echo "bench: no vocabulary $voc" >&2; exit 2; fi
 if [ ! -x "$build/apps/rvwo-replay" ]; then
