@@ -31,9 +31,15 @@ INFO = "sensor_msgs/msg/CameraInfo"
 ODOMETRY = "nav_msgs/msg/Odometry"
 JOINTS = "sensor_msgs/msg/JointState"
 TWIST = "geometry_msgs/msg/TwistStamped"
-TF = "tf2_msgs/msg/TFMessage"
+TF = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")  # ROS 2 and ROS 1's; the older tf's, as TUM's bags have it
 ODOMETRY_TYPES = (ODOMETRY, JOINTS, TWIST)
 TICKS_PER_REVOLUTION = 65536  # rvwo-convert's wheel angles as encoder ticks (a power of two: exact)
+# TUM RGB-D's bags (Sturm et al., IROS 2012, "File Formats"): the Kinect's colour and registered depth (32FC1, m),
+# and on the fr2 Pioneer sequences the robot's odometry, published by its driver as nav_msgs/Odometry on /pose.
+TUM_TOPICS = {"image": "/camera/rgb/image_color", "depth": "/camera/depth/image", "odometry": "/pose"}
+TUM_PRESETS = ("fr1", "fr2", "fr3")
+# The keys of the camera itself, which a preset writes (rvwo-convert, apps/convert/presets.cc).
+CAMERA_KEYS = ("Camera.type:", "Camera1.", "Camera.width:", "Camera.height:", "Camera.fps:")
 
 
 class BagError(Exception):
@@ -42,6 +48,22 @@ class BagError(Exception):
 
 def stamp(msg):
     return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def mounts(published, tolerance=1e-9):
+    """The transforms (TransformStamped) that stay put over the bag, by (parent, child) frame without a leading
+    slash. One that changes (a driver's odom -> base_link, a motion capture's) is a motion, not a mount: a chain
+    through it would give the camera's place at one instant. Alike: within `tolerance` (m, quaternion components)."""
+    def numbers(tr):
+        t, q = tr.translation, tr.rotation
+        return (t.x, t.y, t.z, q.x, q.y, q.z, q.w)
+    first, moving = {}, set()
+    for tr in published:
+        key = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+        if key in first and any(abs(a - b) > tolerance for a, b in zip(numbers(first[key]), numbers(tr.transform))):
+            moving.add(key)
+        first.setdefault(key, tr.transform)
+    return {key: tr for key, tr in first.items() if key not in moving}
 
 
 def png(path, pixels):
@@ -98,17 +120,16 @@ class Conversion:
         self.out.mkdir(parents=True, exist_ok=True)
         rows = {role: [] for role in roles if role != "odometry"}
         odometry = []
-        conns = [c for c in reader.connections if c.topic in roles.values() or c.msgtype in (INFO, TF)]
+        conns = [c for c in reader.connections if c.topic in roles.values() or c.msgtype == INFO or c.msgtype in TF]
         role_of = {topic: role for role, topic in roles.items()}
-        transforms = {}
+        published = []  # every geometry_msgs/TransformStamped of /tf and /tf_static
         counts = {}
         for conn, _, raw in reader.messages(connections=conns):
             msg = reader.deserialize(raw, conn.msgtype)
             role = role_of.get(conn.topic)
             index = counts[conn.topic] = counts.get(conn.topic, 0) + 1
-            if conn.msgtype == TF:
-                for tr in msg.transforms:
-                    transforms[(tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))] = tr.transform
+            if conn.msgtype in TF:
+                published += msg.transforms
             elif conn.msgtype == INFO:
                 self.info.setdefault(conn.topic, msg)
             elif role == "odometry":
@@ -120,7 +141,7 @@ class Conversion:
         if odometry:
             self.check_order(odometry, roles["odometry"])
         self.write_lists(rows, odometry)
-        self.write_settings(roles, rows, transforms)
+        self.write_settings(roles, rows, mounts(published))
         return rows, odometry
 
     def pick_topics(self, reader):
@@ -137,6 +158,14 @@ class Conversion:
             return value
 
         roles = {}
+        if self.args.preset:  # a TUM bag: its own topic names unless the flags give others
+            self.args.image = self.args.image or TUM_TOPICS["image"]
+            self.args.depth = self.args.depth or TUM_TOPICS["depth"]
+            if not self.args.odometry and TUM_TOPICS["odometry"] not in topics:
+                self.args.no_odometry = True
+                self.still.append(f"wheel odometry: this bag has no {TUM_TOPICS['odometry']} (of TUM's, only the fr2 "
+                                  "pioneer_* sequences do): replay with --mode vo")
+            self.args.odometry = self.args.odometry or TUM_TOPICS["odometry"]
         image = named("--image", self.args.image, (IMAGE, COMPRESSED), "an image")
         if image is None:
             if not images:
@@ -327,7 +356,31 @@ class Conversion:
                 lines += [f"Odometry.WheelRadiusLeft: {self.args.wheel_radius!r}",
                           f"Odometry.WheelRadiusRight: {self.args.wheel_radius!r}", f"Odometry.Track: {self.args.track!r}"]
         lines.append('Semantics.LabelSet: "voc21"')
+        self.lines = lines
         (self.out / "settings.yaml").write_text("\n".join(lines) + "\n")
+
+    def use_preset_camera(self, settings):
+        """Puts the camera of a preset's settings file (what rvwo-convert --preset wrote there) in place of the
+        bag's CameraInfo, keeping the rest (depth, odometry, Camera.T_b_c from the bag); writes it back whole."""
+        preset = settings.read_text().splitlines()
+        camera = [line for line in preset if line.startswith(CAMERA_KEYS)]
+        if not camera:
+            raise BagError(f"{settings}: rvwo-convert wrote no camera for --preset {self.args.preset}")
+        self.still = [s for s in self.still if "intrinsics" not in s]  # the preset gives them
+        rest = [line for line in self.lines if not line.startswith(CAMERA_KEYS)]
+        if not any(line.startswith("Camera.T_b_c:") for line in rest):  # the preset's: the base at the camera
+            at = next(i for i, line in enumerate(preset) if line.startswith("Camera.T_b_c:"))
+            camera += preset[at:at + 5]  # the key, rows, cols, dt, data
+            self.still = [s for s in self.still if not s.startswith("Camera.T_b_c")]
+            if any(line.startswith("Odometry.Input:") for line in rest):
+                self.still.append("Camera.T_b_c: the Kinect on the robot's base (TUM published none; the settings "
+                                  "put the base at the camera, x forward, which --mode vw needs measured)")
+        at = next(i for i, line in enumerate(rest) if line.startswith("Sensor:")) + 1
+        text = "\n".join(rest[:at] + [f"# camera: TUM RGB-D's published calibration (rvwo-convert --preset "
+                                        f"{self.args.preset})"] + camera + rest[at:]) + "\n"
+        staged = settings.with_name(settings.name + ".partial")
+        staged.write_text(text)
+        staged.replace(settings)
 
 
 def list_topics(reader):
@@ -379,6 +432,8 @@ def arguments():
     p.add_argument("--wheel-radius", type=float, metavar="M", help="the wheels' radius, m (into the settings)")
     p.add_argument("--track", type=float, metavar="M", help="the distance between the wheels, m (into the settings)")
     p.add_argument("--base-frame", default="base_link", help="the robot's base frame in /tf_static (base_link)")
+    p.add_argument("--preset", choices=TUM_PRESETS, help="a TUM RGB-D bag of this rig: its topics (/camera/rgb/"
+                   "image_color, /camera/depth/image, /pose) and its published camera (rvwo-convert's presets)")
     p.add_argument("--version", action="version", version=f"rvwo-bag  version: {os.environ.get('RVWO_VERSION', '?')}")
     args = p.parse_args()
     if not args.input:
@@ -424,11 +479,17 @@ def main():
     if out.exists():
         out.rmdir()
     staged.rename(out)
+    preset = ["--preset", args.preset] if args.preset else []
     done = subprocess.run([convert_tool(), "generic", "--in", str(out), "--out", str(out / "sequence.rawlog"),
-                           "--depth-factor", "1000"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if done.returncode != 0:
+                           "--depth-factor", "1000"] + preset, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        if done.returncode != 0:
+            raise BagError(f"{done.stderr.strip() or 'rvwo-convert failed'} (nothing written)")
+        if args.preset:  # rvwo-convert wrote the preset's settings: the bag's own, with the preset's camera
+            conversion.use_preset_camera(out / "settings.yaml")
+    except BagError as e:
         shutil.rmtree(out, ignore_errors=True)
-        print(f"rvwo-bag: error: {done.stderr.strip() or 'rvwo-convert failed'} (nothing written)", file=sys.stderr)
+        print(f"rvwo-bag: error: {e}", file=sys.stderr)
         return 1
     print(f"rvwo-bag: {args.input}: {len(rows['left'])} frames, {len(odometry)} odometry readings -> "
           f"{out / 'sequence.rawlog'} and {out / 'settings.yaml'}")

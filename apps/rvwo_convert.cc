@@ -110,7 +110,7 @@ struct ConvertArgs {
       "",
       "preset",
       "the dataset's published camera, written as settings.yaml beside the rawlog: tum fr1|fr2|fr3 (default: from a "
-      "TUM folder's name, rgbd_dataset_freiburgN_...)",
+      "TUM folder's name, rgbd_dataset_freiburgN_...); generic: the same, for frames from a TUM bag (rvwo-bag)",
       false,
       "",
       "name",
@@ -244,6 +244,11 @@ void readGenericFolder(const fs::path& in, double depth_factor, Conversion* c) {
 // calibration files; none: nullopt.
 std::optional<rvwo::apps::DatasetPreset> presetOf(ConvertArgs& args, const fs::path& in) {
   const std::string& kind = args.kind.getValue();
+  if (args.preset.isSet() && kind == "generic") {  // a TUM rig's frames, in --depth-factor units (rvwo-bag's mm)
+    rvwo::apps::DatasetPreset p = rvwo::apps::datasetPreset("tum", args.preset.getValue());
+    p.depth_factor = args.depth_factor.getValue();
+    return p;
+  }
   if (args.preset.isSet()) return rvwo::apps::datasetPreset(kind, args.preset.getValue());
   if (kind == "tum") {
     const std::string rig = rvwo::apps::tumPresetOfFolder(in);

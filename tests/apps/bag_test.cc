@@ -92,6 +92,14 @@ void dump(const fs::path& seq, const fs::path& src) {
   for (int i = 0; i < 16; ++i) tbc << T_b_c.at<double>(i / 4, i % 4) << " ";
 }
 
+// A scratch folder `name` holding the simulated sequence `seq` dumped for write_bag.py in src/.
+fs::path dumpedTo(const fs::path& seq, const std::string& name) {
+  const fs::path work = rvwo::test::scratch(name);
+  fs::remove_all(work);
+  dump(seq, work / "src");
+  return work;
+}
+
 // The simulator's settings with Odometry.Input set (and the ticks a wheel turn, when given).
 void settingsWith(const fs::path& from, const fs::path& to, const std::string& input, const std::string& ticks = "") {
   std::ifstream in(from);
@@ -111,9 +119,7 @@ struct Case {
 void roundTrip(const Case& c) {
   SCOPED_TRACE(c.camera + " " + c.storage + " " + c.odometry);
   const fs::path seq = simulate("static", 3.0, "--camera " + c.camera);
-  const fs::path work = rvwo::test::scratch("bag_" + c.camera + "_" + c.storage + "_" + c.odometry);
-  fs::remove_all(work);
-  dump(seq, work / "src");
+  const fs::path work = dumpedTo(seq, "bag_" + c.camera + "_" + c.storage + "_" + c.odometry);
   const std::string bag = (work / (c.storage == "ros1" ? "run.bag" : "run")).string();
   const bool compressed = c.camera == "mono";  // CompressedImage (png) for mono, Image for the others
   ASSERT_EQ(run(kPython + " " + RVWO_SOURCE_DIR + "/tests/apps/write_bag.py " + (work / "src").string() + " " + bag +
@@ -200,9 +206,7 @@ std::string failure(const std::string& bag, const std::string& flags) {
 
 TEST(Bag, BadBagsGetOneLineAndLeaveNothing) {
   const fs::path seq = simulate("static", 1.0, "--camera stereo");
-  const fs::path work = rvwo::test::scratch("bag_bad");
-  fs::remove_all(work);
-  dump(seq, work / "src");
+  const fs::path work = dumpedTo(seq, "bag_bad");
   const std::string left = " --image /camera/left/image_raw";
   std::string bag = spoiltBag(work / "src", "no_odometry.bag", "ros1", "--drop /odom");
   EXPECT_EQ(failure(bag, left), "rvwo-bag: error: " + bag +
@@ -267,6 +271,87 @@ TEST(Bag, RgbdRos2SqliteWithWheelSpeedsReplaysAsTheRawlog) {
 // Wheel speeds alone: the robot's speed and turn rate through the wheels given on the command line.
 TEST(Bag, StereoRos2McapWithWheelSpeedsReplaysAsTheRawlog) {
   roundTrip({"stereo", "mcap", "speeds", "velocities", " --wheel-radius 0.08 --track 0.4"});
+}
+
+// Each observation of a kind in a rawlog, in order.
+template <class T>
+std::vector<T> observations(const fs::path& rawlog) {
+  std::vector<T> out;
+  RawlogReader reader(rawlog.string());
+  while (auto o = reader.next()) {
+    if (auto x = dynamic_cast<const T*>(o->get())) out.push_back(*x);
+  }
+  return out;
+}
+
+// A bag laid out as TUM RGB-D ships its fr2 Pioneer sequences (write_bag.py --layout tum) and
+// rvwo-bag --preset fr2: TUM's topics found by name, the published calibration in place of the
+// bag's default camera_info, depth in metres back to millimetres, the Pioneer's /pose as the
+// odometry. The moving /tf transforms join nothing: the preset's Camera.T_b_c, and a line asking
+// for the real mount. A bag without /pose (fr1, fr3) converts for --mode vo and replays.
+TEST(Bag, TumPioneerBagWithItsPresetConvertsWithThePublishedCamera) {
+  const fs::path seq = simulate("static", 2.0, "--camera rgbd");
+  const fs::path work = dumpedTo(seq, "bag_tum");
+  const std::string bag = (work / "rgbd_dataset_freiburg2_pioneer_360.bag").string();
+  const std::string write =
+      kPython + " " + RVWO_SOURCE_DIR + "/tests/apps/write_bag.py " + (work / "src").string() + " ";
+  ASSERT_EQ(run(write + bag + " --storage ros1 --odometry odometry --layout tum"), 0);
+  const fs::path out = work / "pioneer";
+  const std::string log = (work / "bag.log").string();
+  ASSERT_EQ(run(kBag + " --in " + bag + " --out " + out.string() + " --preset fr2 > " + log + " 2>&1"), 0)
+      << rvwo::test::slurp(log);
+  cv::FileStorage s((out / "settings.yaml").string(), cv::FileStorage::READ);
+  EXPECT_EQ(std::string(s["Sensor"]), "rgbd");
+  // TUM's fr2 figures ("Intrinsic Camera Calibration of the Kinect"), not the bag's 525 / 319.5 / 239.5.
+  const std::pair<const char*, double> published[] = {
+      {"Camera1.fx", 520.9},        {"Camera1.fy", 521.0},   {"Camera1.cx", 325.1},   {"Camera1.cy", 249.7},
+      {"Camera1.k1", 0.2312},       {"Camera1.k2", -0.7849}, {"Camera1.p1", -0.0033}, {"Camera1.p2", -0.0001},
+      {"Camera1.k3", 0.9172},       {"Camera.width", 640},   {"Camera.height", 480},  {"Camera.fps", 30},
+      {"RGBD.DepthMapFactor", 1000}};
+  for (const auto& [key, value] : published) EXPECT_DOUBLE_EQ(double(s[key]), value) << key;
+  EXPECT_EQ(std::string(s["Odometry.Input"]), "pose");
+  // No transform joins the Pioneer to the Kinect: the preset's (the base at the camera, x forward), and a line.
+  cv::Mat T_b_c;
+  s["Camera.T_b_c"] >> T_b_c;
+  ASSERT_EQ(T_b_c.size(), cv::Size(4, 4));
+  EXPECT_EQ(cv::norm(T_b_c - cv::Mat(cv::Matx44d(0, 0, 1, 0, -1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 0, 1)), cv::NORM_INF), 0);
+  const std::string said = rvwo::test::slurp(log);
+  EXPECT_NE(said.find("Camera.T_b_c: the Kinect on the robot's base (TUM published none"), std::string::npos) << said;
+  EXPECT_EQ(said.find("intrinsics"), std::string::npos) << said;
+  // Every frame, with the simulator's pixels and millimetres, and every odometry reading.
+  const auto mine = observations<mrpt::obs::CObservation3DRangeScan>(out / "sequence.rawlog"),
+             sim = observations<mrpt::obs::CObservation3DRangeScan>(seq / "sequence.rawlog");
+  ASSERT_EQ(mine.size(), sim.size());
+  ASSERT_GT(mine.size(), 50u);
+  for (std::size_t i = 0; i < mine.size(); i += 17) {
+    EXPECT_FLOAT_EQ(mine[i].rangeUnits, 1e-3f);
+    EXPECT_TRUE(mine[i].rangeImage == sim[i].rangeImage) << "frame " << i;
+    EXPECT_EQ(cv::norm(loadImage(mine[i].intensityImage, cv::IMREAD_GRAYSCALE),
+                       loadImage(sim[i].intensityImage, cv::IMREAD_GRAYSCALE), cv::NORM_INF),
+              0.0)
+        << "frame " << i;
+  }
+  EXPECT_EQ(observations<mrpt::obs::CObservationOdometry>(out / "sequence.rawlog").size(),
+            observations<mrpt::obs::CObservationOdometry>(seq / "sequence.rawlog").size());
+  // A bag without /pose (fr1 and fr3, hand-held): no odometry, and the line says to replay vo.
+  const std::string hand_held = (work / "rgbd_dataset_freiburg1_xyz.bag").string();
+  ASSERT_EQ(run(write + hand_held + " --storage ros1 --odometry odometry --layout tum --drop /pose"), 0);
+  ASSERT_EQ(run(kBag + " --in " + hand_held + " --out " + (work / "xyz").string() + " --preset fr1 > " + log + " 2>&1"),
+            0)
+      << rvwo::test::slurp(log);
+  cv::FileStorage fr1((work / "xyz" / "settings.yaml").string(), cv::FileStorage::READ);
+  EXPECT_DOUBLE_EQ(double(fr1["Camera1.fx"]), 517.3);
+  EXPECT_TRUE(fr1["Odometry.Input"].empty());
+  const std::string fr1_said = rvwo::test::slurp(log);
+  EXPECT_NE(fr1_said.find("still to supply in settings.yaml: wheel odometry: this bag has no /pose (of TUM's, only "
+                          "the fr2 pioneer_* sequences do): replay with --mode vo\n"),
+            std::string::npos)
+      << fr1_said;
+  // One command from the bag to a replay (the ground truth, as a TUM folder has it, from the simulator).
+  fs::copy_file(seq / "groundtruth.txt", work / "xyz" / "groundtruth.txt");
+  const Outcome vo = replay(work / "xyz", "--mode vo", "vo");
+  EXPECT_EQ(vo.status, 0) << vo.err;
+  EXPECT_GT(vo.poses, 0u);
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 # Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 """rvwo-bag's pieces on their own: each image encoding it reads, to the pixels RVWO's apps decode
 (its PNG writer read back by an independent decoder: zlib and the PNG layout), and the
-transform chain it walks in /tf_static.
+transform chain it walks in /tf_static, which leaves out the transforms that move.
 
   python tests/apps/bag_units_test.py     (ctest: bag_units, with the set-up's Python)
 """
@@ -111,6 +111,21 @@ class Transforms(unittest.TestCase):
         expected = np.array([[0, -1, 0, 1], [1, 0, 0, 0], [0, 0, 1, 0.5], [0, 0, 0, 1]], float)
         np.testing.assert_allclose(T, expected, atol=1e-15)
         self.assertIsNone(conv.base_to_camera(transforms, "elsewhere"))
+
+    def test_a_transform_that_moves_is_no_mount(self):
+        # odom -> base_link moves with the robot; /kinect -> /camera stays put (leading slashes as ROS 1 had them).
+        v = types.SimpleNamespace
+
+        def stamped(parent, child, x):
+            return v(header=v(frame_id=parent), child_frame_id=child, transform=self.transform((x, 0, 0), (0, 0, 0, 1)))
+        published = [stamped("/odom", "/base_link", 0.0), stamped("/kinect", "/camera", 0.1),
+                     stamped("/odom", "/base_link", 0.5), stamped("/kinect", "/camera", 0.1 + 1e-12)]
+        kept = rvwo_bag.mounts(published)
+        self.assertEqual(sorted(kept), [("kinect", "camera")])
+        self.assertEqual(kept[("kinect", "camera")].translation.x, 0.1)  # the first, to within 1e-9
+        conv = rvwo_bag.Conversion(types.SimpleNamespace(out="x", base_frame="odom"))
+        self.assertIsNone(conv.base_to_camera(kept, "base_link"))
+        self.assertIsNotNone(conv.base_to_camera(rvwo_bag.mounts(published[:2]), "base_link"))  # once: a mount
 
 
 if __name__ == "__main__":

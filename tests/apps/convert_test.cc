@@ -134,8 +134,8 @@ TEST(Convert, TumPresetsWriteThePublishedCalibration) {
   fs::remove(out.parent_path() / "settings.yaml");
   EXPECT_EQ(WEXITSTATUS(convert("tum --preset fr4 --in " + plain.string() + " --out " + out.string(), &err)), 1);
   EXPECT_EQ(err, "rvwo-convert: error: --preset fr4: tum has the presets fr1, fr2, fr3\n");
-  EXPECT_EQ(WEXITSTATUS(convert("generic --preset fr3 --in " + plain.string() + " --out " + out.string(), &err)), 1);
-  EXPECT_EQ(err, "rvwo-convert: error: --preset fr3: generic has no presets\n");
+  EXPECT_EQ(WEXITSTATUS(convert("openloris --preset fr3 --in " + plain.string() + " --out " + out.string(), &err)), 1);
+  EXPECT_EQ(err, "rvwo-convert: error: --preset fr3: openloris has no presets\n");
   ASSERT_EQ(convert("tum --in " + plain.string() + " --out " + out.string(), &err), 0) << err;
   EXPECT_FALSE(fs::exists(out.parent_path() / "settings.yaml"));
 }
