@@ -687,6 +687,61 @@ class HalfPerson final : public rvwo::Segmenter {
   int person_ = rvwo::SemanticPriors::builtin("voc21").labelOf("person");
 };
 
+// Keeps what each image it was given looked like: its channels and its first pixel.
+class Recorder final : public rvwo::Segmenter {
+ public:
+  rvwo::Segmentation segment(const cv::Mat& image, const rvwo::FrameInfo&) override {
+    std::lock_guard<std::mutex> lock(mutex);
+    seen.push_back(image.channels() == 1 ? cv::Vec3b(image.at<uchar>(0, 0), 0, 0) : image.at<cv::Vec3b>(0, 0));
+    channels.push_back(image.channels());
+    rvwo::Segmentation s;
+    s.labels = cv::Mat::zeros(image.rows, image.cols, CV_32S);
+    return s;
+  }
+  const std::vector<std::string>& classNames() const override { return names_; }
+  std::mutex mutex;
+  std::vector<int> channels;
+  std::vector<cv::Vec3b> seen;
+
+ private:
+  std::vector<std::string> names_ = rvwo::SemanticPriors::builtin("voc21").classes();
+};
+
+TEST(WheelInputLabels, TheSegmenterSeesTheFramesColourImage) {
+  // ORB-SLAM3's keyframe carries its grey image; the network needs the colour one Tracking got.
+  WheelInput w;
+  WheelInputParams p;
+  p.T_b_c = tiltedCamera();
+  w.configure(p);
+  const cv::Mat grey(480, 640, CV_8U, cv::Scalar(7));
+  w.frameImage(cv::Mat(480, 640, CV_8UC3, cv::Scalar(1, 2, 3)));  // before a segmenter: not kept
+  auto recorder = std::make_shared<Recorder>();
+  w.setSegmenter(recorder);
+  w.keyFrame(0.0, grey, {});
+  cv::Mat colour(480, 640, CV_8UC3, cv::Scalar(10, 20, 30));
+  w.frameImage(colour);
+  w.keyFrame(0.1, grey, {});
+  w.waitForLabels(5.0);
+  colour.setTo(cv::Scalar(0, 0, 0));  // the caller's next frame in the same buffer: the keyframe's was copied
+  w.frameImage(cv::Mat(480, 640, CV_8UC4, cv::Scalar(40, 50, 60, 255)));  // BGRA, as ORB-SLAM3 takes it
+  w.keyFrame(0.2, grey, {});
+  w.waitForLabels(5.0);
+  w.frameImage(cv::Mat(240, 320, CV_8UC3, cv::Scalar(70, 80, 90)));  // not the keyframe's image: its grey
+  w.keyFrame(0.3, grey, {});
+  w.waitForLabels(5.0);
+  w.frameImage(grey);  // a grey camera: nothing to keep
+  w.keyFrame(0.4, grey, {});
+  w.waitForLabels(5.0);
+  std::lock_guard<std::mutex> lock(recorder->mutex);
+  EXPECT_EQ(recorder->channels, (std::vector<int>{1, 3, 3, 1, 1}));
+  ASSERT_EQ(recorder->seen.size(), 5u);
+  EXPECT_EQ(recorder->seen[0], cv::Vec3b(7, 0, 0));
+  EXPECT_EQ(recorder->seen[1], cv::Vec3b(10, 20, 30));
+  EXPECT_EQ(recorder->seen[2], cv::Vec3b(40, 50, 60));
+  EXPECT_EQ(recorder->seen[3], cv::Vec3b(7, 0, 0));
+  EXPECT_EQ(recorder->seen[4], cv::Vec3b(7, 0, 0));
+}
+
 TEST(WheelInputLabels, KeyframeLabelsRejectAWalkersPointsAndKeepTheRest) {
   WheelInput w;
   WheelInputParams p;

@@ -1,6 +1,8 @@
 // Copyright (c) 2026 the RVWO authors. GPL-3.0-or-later (plugins/orbslam3/LICENSE).
 #include "rvwo/orbslam3/wheel_input.h"
 
+#include <opencv2/imgproc.hpp>
+
 #include "wheel_input_impl.h"
 
 namespace rvwo::orbslam3 {
@@ -364,13 +366,28 @@ void WheelInput::setSegmenter(const std::shared_ptr<Segmenter>& segmenter) {
 
 bool WheelInput::segments() const { return impl_ && impl_->segmenter; }
 
+void WheelInput::frameImage(const cv::Mat& image) {
+  if (!segments()) return;
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->frame_image = image.channels() == 3 || image.channels() == 4 ? image : cv::Mat();
+}
+
 void WheelInput::keyFrame(double t, const cv::Mat& image, const std::vector<KeyFrameFeature>& features) {
   if (!segments()) return;
   Impl& m = *impl_;
   std::lock_guard<std::mutex> lock(m.mutex);
   const std::uint64_t id = m.keyframes_sent++;
   // A copy: ORB-SLAM3's image may share the caller's buffer, which the next frame may overwrite.
-  if (m.segmenter->submit(image.clone(), FrameInfo{id, t})) m.waiting.emplace(id, features);
+  cv::Mat seen;
+  if (!m.frame_image.empty() && m.frame_image.size() == image.size()) {
+    if (m.frame_image.channels() == 4)
+      cv::cvtColor(m.frame_image, seen, cv::COLOR_BGRA2BGR);
+    else
+      seen = m.frame_image.clone();
+  } else {
+    seen = image.clone();
+  }
+  if (m.segmenter->submit(seen, FrameInfo{id, t})) m.waiting.emplace(id, features);
   m.applyLabels();
 }
 

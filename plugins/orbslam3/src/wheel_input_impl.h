@@ -213,6 +213,7 @@ struct WheelInput::Impl {
   // ---- labels
   SemanticPriors priors;
   std::unique_ptr<AsyncSegmenter> segmenter;
+  cv::Mat frame_image;  // the frame's colour image (frameImage), for the keyframe it may become
   std::uint64_t keyframes_sent = 0;
   std::map<std::uint64_t, std::vector<KeyFrameFeature>> waiting;  // keyframe -> its features
   std::size_t segmented = 0;

@@ -15,7 +15,8 @@ namespace rvwo {
 namespace orbslam3 {
 
 // image: the frame's as tracked (ORB-SLAM3's mImGray: the left one of a stereo pair), where the
-// keyframe's keypoints (mvKeys, not undistorted) lie.
+// keyframe's keypoints (mvKeys, not undistorted) lie; the segmenter sees its colour original when
+// the patched Grab* gave it (WheelInput::frameImage).
 template <class KeyFrameT, class ImageT>
 void sendKeyFrame(WheelInput& wheels, KeyFrameT& keyframe, const ImageT& image) {
   if (!wheels.segments()) return;

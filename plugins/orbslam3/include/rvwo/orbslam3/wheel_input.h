@@ -315,7 +315,12 @@ class WheelInput {
   // settings); none: no keyframe is segmented, reliabilities learn from reprojection errors alone.
   void setSegmenter(const std::shared_ptr<Segmenter>& segmenter);
   bool segments() const;
-  // A keyframe: its image (8-bit grey or BGR; copied) and its keypoints that see map points.
+  // The frame's image as Tracking was given it (BGR or BGRA, rectified like the grey one it makes;
+  // OpenCV's channel order whatever Camera.RGB says), kept for the keyframe the frame may become:
+  // the segmenter's network needs colour. A reference, not a copy; nothing kept without a segmenter.
+  void frameImage(const cv::Mat& image);
+  // A keyframe: its image (8-bit grey; copied) and its keypoints that see map points. The
+  // segmenter sees the frame's colour image instead when frameImage gave one of the same size.
   // Never waits: labels that have come are applied here and before each optimisePose; when
   // keyframes come faster than the segmenter, the oldest waiting one is dropped.
   void keyFrame(double t, const cv::Mat& image, const std::vector<KeyFrameFeature>& features);
