@@ -5,25 +5,15 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "rvwo/kernels/barron.h"
+#include "robust_weight.h"
 
 namespace rvwo {
 namespace {
 
-// Whether a match may place the pose: usable, and not rejected by its kernel (Huber ignores alpha).
-bool placesThePose(const PoseObservation& o, const PlanarPoseOptions& opt) {
-  return o.usable && (opt.huber || o.alpha != -BarronKernel::kInfinity);
-}
+using tracking_detail::weight;
 
-// IRLS weight rho'(s) of a squared whitened error s: Huber at the gate's root, or Barron.
-double weight(double s, const BarronKernel& kernel, bool huber, bool stereo) {
-  if (huber) {
-    const double c = std::sqrt(chi2Gate(stereo)), r = std::sqrt(s);
-    return r <= c ? 1.0 : c / r;
-  }
-  double rho[3];
-  kernel.evaluate(s, rho);
-  return rho[1];
+bool placesThePose(const PoseObservation& o, const PlanarPoseOptions& opt) {
+  return tracking_detail::placesThePose(o, opt.huber);
 }
 
 // One Gauss-Newton term (w J^T J, w J^T r) of the whitened edge; false when it does not project.
