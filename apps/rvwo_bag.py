@@ -50,6 +50,31 @@ def stamp(msg):
     return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
 
 
+# camera_info distortion models: ROS's (sensor_msgs/distortion_models.h), and the name the RealSense
+# SDK gives the T265's fisheyes, which its ROS driver has published as it is.
+PINHOLE_MODELS = ("plumb_bob", "rational_polynomial", "")
+FISHEYE_MODELS = ("equidistant", "kannala brandt4", "fisheye")
+
+
+def distortion_of(info, topic):
+    """A CameraInfo's distortion as RVWO takes it: (fisheye, coefficients), Kannala-Brandt k1..k4 or
+    radial-tangential k1, k2, p1, p2, k3; a model RVWO cannot hold whole is refused, never cut."""
+    d = [float(v) for v in (info.d if hasattr(info, "d") else info.D)]
+    model = info.distortion_model
+    if model.lower() in FISHEYE_MODELS:
+        if any(d[4:]):
+            raise BagError(f"{topic}: camera_info's {model} distortion has {len(d)} coefficients; RVWO's fisheye "
+                           "(KannalaBrandt8) takes k1..k4")
+        return True, (d + [0.0] * 4)[:4]
+    if model not in PINHOLE_MODELS:
+        raise BagError(f"{topic}: camera_info distortion model '{model}' is not plumb_bob, rational_polynomial "
+                       "or equidistant")
+    if any(d[5:]):
+        raise BagError(f"{topic}: camera_info's {model} distortion has k4..k6; RVWO's pinhole takes k1, k2, p1, p2, "
+                       "k3: calibrate with plumb_bob")
+    return False, (d + [0.0] * 5)[:5]
+
+
 def mounts(published, tolerance=1e-9):
     """The transforms (TransformStamped) that stay put over the bag, by (parent, child) frame without a leading
     slash. One that changes (a driver's odom -> base_link, a motion capture's) is a motion, not a mount: a chain
@@ -308,17 +333,12 @@ class Conversion:
         info = self.camera_info("left", roles["left"])
         if info is not None:
             k = list(getattr(info, "k", None) if hasattr(info, "k") else info.K)
-            d = list(getattr(info, "d", None) if hasattr(info, "d") else info.D)
-            model = info.distortion_model
-            fisheye = model == "equidistant"
-            if model not in ("plumb_bob", "rational_polynomial", "equidistant", ""):
-                raise BagError(f"{roles['left']}: camera_info distortion model '{model}' is not plumb_bob or "
-                               "equidistant")
+            fisheye, d = distortion_of(info, roles["left"])
             lines += [f'Camera.type: "{"KannalaBrandt8" if fisheye else "PinHole"}"',
                       f"Camera1.fx: {float(k[0])!r}", f"Camera1.fy: {float(k[4])!r}", f"Camera1.cx: {float(k[2])!r}",
                       f"Camera1.cy: {float(k[5])!r}"]
             keys = ["k1", "k2", "k3", "k4"] if fisheye else ["k1", "k2", "p1", "p2", "k3"]
-            lines += [f"Camera1.{key}: {float(d[i]) if i < len(d) else 0.0!r}" for i, key in enumerate(keys)]
+            lines += [f"Camera1.{key}: {d[i]!r}" for i, key in enumerate(keys)]
             lines += [f"Camera.width: {info.width}", f"Camera.height: {info.height}"]
         times = np.array([r[0] for r in rows["left"]])
         if len(times) > 1:

@@ -1,7 +1,8 @@
 # Copyright (c) 2026 the RVWO authors. BSD-3-Clause.
 """rvwo-bag's pieces on their own: each image encoding it reads, to the pixels RVWO's apps decode
 (its PNG writer read back by an independent decoder: zlib and the PNG layout), and the
-transform chain it walks in /tf_static, which leaves out the transforms that move.
+transform chain it walks in /tf_static, which leaves out the transforms that move, and the camera
+distortions it takes.
 
   python tests/apps/bag_units_test.py     (ctest: bag_units, with the set-up's Python)
 """
@@ -92,6 +93,29 @@ class Encodings(unittest.TestCase):
             rvwo_bag.pixels_of(message("yuv422", self.grey), "/t", 1, False)
         with self.assertRaises(rvwo_bag.BagError):  # metres are depth only
             rvwo_bag.pixels_of(message("32FC1", np.zeros((2, 2), np.float32)), "/t", 1, False)
+
+
+class Distortion(unittest.TestCase):
+    @staticmethod
+    def info(model, d):
+        return types.SimpleNamespace(distortion_model=model, d=d)
+
+    def test_fisheye_names_and_radial_tangential(self):
+        # ROS's equidistant, and the RealSense SDK's name for the T265's, as its ROS driver published it.
+        for model in ("equidistant", "Kannala Brandt4"):
+            self.assertEqual(rvwo_bag.distortion_of(self.info(model, [0.1, 0.2, 0.3, 0.4, 0.0]), "/t"),
+                             (True, [0.1, 0.2, 0.3, 0.4]))
+        self.assertEqual(rvwo_bag.distortion_of(self.info("plumb_bob", [0.1, 0.2, 0.01, 0.02]), "/t"),
+                         (False, [0.1, 0.2, 0.01, 0.02, 0.0]))
+        self.assertEqual(rvwo_bag.distortion_of(self.info("rational_polynomial", [0.1, 0, 0, 0, 0.3, 0, 0, 0]), "/t"),
+                         (False, [0.1, 0, 0, 0, 0.3]))
+
+    def test_what_rvwo_cannot_hold_is_refused_not_cut(self):
+        with self.assertRaisesRegex(rvwo_bag.BagError, r"^/t: camera_info's rational_polynomial distortion has "
+                                                        r"k4..k6"):
+            rvwo_bag.distortion_of(self.info("rational_polynomial", [0.1, 0, 0, 0, 0.3, 0.05, 0, 0]), "/t")
+        with self.assertRaisesRegex(rvwo_bag.BagError, r"^/t: camera_info distortion model 'pinhole_x' is not"):
+            rvwo_bag.distortion_of(self.info("pinhole_x", []), "/t")
 
 
 class Transforms(unittest.TestCase):
