@@ -22,8 +22,9 @@
 // --realtime 0: as fast as it goes; --deterministic runs everything inline.
 // In a build given ORB_SLAM3_ROOT (a patched ORB-SLAM3 v1.0, patches/orbslam3/), --backend orbslam3
 // replays the same rawlog through ORB-SLAM3 instead: --mode vw hands it the wheel readings, --mode vo
-// does not (upstream's behaviour), for side-by-side runs; with the wheels its keyframes go to the
-// segmenter (--segmenter), whose labels reach its tracking's adaptive kernel (patch 0005). It is
+// does not (upstream's behaviour), for side-by-side runs; its keyframes go to the segmenter
+// (--segmenter), whose labels reach its tracking's adaptive kernel (patch 0005): with --mode vo
+// only when --segmenter is given, and then in 6-DoF (the paper's Table I, TUM RGB-D). It is
 // fed at the recorded pace unless --realtime says otherwise, as ORB-SLAM3's own examples feed it:
 // its local mapping skips a keyframe's local map while tracking outruns it (mono fed flat out
 // solved 7 to 15 in 90 s against 69 to 127 as recorded, and about one run in five drifted).
@@ -336,11 +337,17 @@ class ReplayApp {
     return rvwo::shippedModelPath();
   }
 
+  // ORB-SLAM3's segmenter: the replay's with the wheels; without, only one --segmenter names (the
+  // default leaves ORB-SLAM3 as upstream, for side-by-side runs).
+  std::shared_ptr<rvwo::Segmenter> orbslam3Segmenter() const {
+    return vw() || req().segmenter != "auto" ? segmenter_ : nullptr;
+  }
+
   void makeBackend() {
 #ifdef RVWO_WITH_ORBSLAM3
     if (use_orbslam3_)
       orbslam3_ = std::make_unique<rvwo::apps::OrbSlam3Backend>(rig_, opt_, vw(), *settings_, req().vocabulary,
-                                                                req().out, segmenter_);
+                                                                req().out, orbslam3Segmenter());
 #endif
     if (!use_orbslam3_) {
       estimator_ = std::make_unique<rvwo::estimator::Estimator>(rig_, opt_, segmenter_);
@@ -571,11 +578,14 @@ class ReplayApp {
     const double seq_s = last_t_ - first_t_;
     const std::string& rawlog = req().rawlog;
     if (use_orbslam3_) {
+      const bool labels = orbslam3Segmenter() != nullptr;
       std::printf("rvwo-replay: %s, ORB-SLAM3 (patched), %s\n", rawlog.c_str(),
-                  vw() ? "with the wheels" : "without the wheels (upstream behaviour)");
+                  vw()     ? "with the wheels"
+                  : labels ? "without the wheels, RVWO's labels and kernel in its 6-DoF tracking"
+                           : "without the wheels (upstream behaviour)");
       std::printf("  frames %zu over %.1f s, keyframes %zu, poses kept %zu, semantics %s, segmented keyframes %zu\n",
-                  rep_.frames, seq_s, rep_.keyframes, est_.size(),
-                  vw() ? seg_name_.c_str() : "none (without the wheels)", rep_.segmented_keyframes);
+                  rep_.frames, seq_s, rep_.keyframes, est_.size(), labels || vw() ? seg_name_.c_str() : "none",
+                  rep_.segmented_keyframes);
     } else {
       std::printf("rvwo-replay: %s, mode %s, kernel %s, semantics %s\n", rawlog.c_str(), req().mode.c_str(),
                   req().kernel.c_str(), labelsAbsent() ? "none (the rawlog has no label images)" : seg_name_.c_str());

@@ -80,15 +80,19 @@ OrbSlam3Backend::OrbSlam3Backend(const estimator::Rig& rig, const estimator::Est
   }
   more.emplace_back("Segmentation.LabelDilation", std::to_string(opt.label_dilation_px));
   more.emplace_back("Segmentation.Model", "\"none\"");  // the replay's own segmenter, given below, or none
-  orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels ? &w : nullptr, more);
+  // Without the wheels, RVWO's vision (labels, kernels) runs in ORB-SLAM3's tracking when a
+  // segmenter gives labels; otherwise ORB-SLAM3 runs as upstream.
+  const bool rvwo_vision = !wheels && segmenter;
+  w.wheels = wheels;
+  orbslam3::writeOrbSlam3Settings(o.settings, o.sensor, c, f, wheels || rvwo_vision ? &w : nullptr, more);
   std::printf("rvwo-replay: ORB-SLAM3 settings %s, its console output in %s\n", o.settings.c_str(), o.log.c_str());
   std::snprintf(g_abort_message, sizeof g_abort_message,
                 "\nrvwo-replay: error: ORB-SLAM3 aborted (its last words are in %s); no trajectory written\n",
                 o.log.c_str());
   std::signal(SIGABRT, orbslam3Aborted);
   runner_ = std::make_unique<orbslam3::Runner>(o);
-  // Keyframes to the segmenter, labels into tracking's reliabilities (patch 0005): with the wheels.
-  if (wheels && segmenter) runner_->setSegmenter(segmenter);
+  // Keyframes to the segmenter, labels into tracking's reliabilities (patch 0005).
+  if (segmenter) runner_->setSegmenter(segmenter);
   scratch_ = fs::path(out).replace_extension(".orbslam3-").string();
 }
 

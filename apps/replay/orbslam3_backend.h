@@ -26,7 +26,9 @@ class OrbSlam3Backend {
   // settings: the sequence's, whose Odometry.Noise*, Odometry.Calibrate*, Reliability.*, Semantics.*,
   // Tracking.* (over the plugin's defaults), Initializer.*, LocalMapping.*, LoopClosing.* and
   // ORBextractor.AlignedPyramid keys go on to ORB-SLAM3 (and the label dilation, Segmentation.LabelDilation).
-  // segmenter: the keyframes' (with the wheels; none: reliabilities from reprojection errors alone).
+  // segmenter: the keyframes' (none: reliabilities from reprojection errors alone); without the
+  // wheels, one given runs RVWO's vision (labels, kernels) in ORB-SLAM3's 6-DoF tracking, and
+  // none leaves ORB-SLAM3 as upstream.
   OrbSlam3Backend(const estimator::Rig& rig, const estimator::EstimatorOptions& opt, bool wheels,
                   const Settings& settings, const std::string& vocabulary, const std::string& out,
                   const std::shared_ptr<Segmenter>& segmenter);

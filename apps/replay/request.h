@@ -77,8 +77,9 @@ struct ReplayArgs {
       "",
       "backend",
       "rvwo (default): RVWO's estimator; orbslam3: the patched ORB-SLAM3 this build was given (--mode vw: with "
-      "the wheels, vo: without, as upstream; --kernel adaptive|huber and, with the wheels, the keyframes' labels "
-      "(--segmenter, --no-semantics) apply to its tracking)",
+      "the wheels; vo: without, as upstream, or with --segmenter given RVWO's labels and --kernel in its 6-DoF "
+      "tracking; --kernel adaptive|huber and the keyframes' labels (--segmenter, --no-semantics) apply to its "
+      "tracking)",
       false,
       "rvwo",
       "rvwo|orbslam3",

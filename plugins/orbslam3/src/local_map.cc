@@ -7,7 +7,9 @@
 
 namespace rvwo::orbslam3 {
 
-bool WheelInput::optimisesLocalMaps() const { return optimisesPoses() && impl_->params.local_map; }
+bool WheelInput::optimisesLocalMaps() const {
+  return optimisesPoses() && impl_->params.wheels && impl_->params.local_map;
+}
 
 // The problem on the plane: keyframes as robot poses x_w_b (out of the plane parts dropped, as
 // tracking drops them), points in the planar world (T_w_c0 = T_b_c), each point's shape (eq. 7),

@@ -85,17 +85,23 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
   if (wheels) {
     out << "# RVWO's wheel input (patches/orbslam3)\n";
     out << "Sensor: \"" << (sensor == RunnerOptions::Sensor::kMono ? "mono" : "stereo") << "\"\n";
-    out << matrixEntry("Camera.T_b_c", wheels->T_b_c) << matrixEntry("Odometry.T_b_o", wheels->T_b_o);
-    out << "Odometry.WheelRadiusLeft: " << real(wheels->radius_left)
-        << "\nOdometry.WheelRadiusRight: " << real(wheels->radius_right) << "\nOdometry.Track: " << real(wheels->track)
-        << "\n";
-    out << "Tracking.Planar: " << (wheels->planar ? 1 : 0) << "\nTracking.Kernel: \""
-        << (wheels->huber ? "huber" : "adaptive") << "\"\n";
+    if (wheels->wheels) {
+      out << matrixEntry("Camera.T_b_c", wheels->T_b_c) << matrixEntry("Odometry.T_b_o", wheels->T_b_o);
+      out << "Odometry.WheelRadiusLeft: " << real(wheels->radius_left)
+          << "\nOdometry.WheelRadiusRight: " << real(wheels->radius_right)
+          << "\nOdometry.Track: " << real(wheels->track) << "\n";
+    } else {
+      out << "Odometry.Input: \"none\"  # RVWO's vision alone: labels and adaptive kernels in 6-DoF tracking\n";
+    }
+    if (wheels->wheels) out << "Tracking.Planar: " << (wheels->planar ? 1 : 0) << "\n";
+    out << "Tracking.Kernel: \"" << (wheels->huber ? "huber" : "adaptive") << "\"\n";
     writeTrackingOptions(out, wheels->tracking);
-    out << "LocalMapping.Planar: " << (wheels->local_map ? 1 : 0)
-        << "\nLocalMapping.MaxWheelSpan: " << real(wheels->max_wheel_span)
-        << "\nLocalMapping.SpinMinFrames: " << wheels->spin_min_frames
-        << "\nOdometry.Calibrate: " << (wheels->calibrate ? 1 : 0) << "\n";
+    if (wheels->wheels) {
+      out << "LocalMapping.Planar: " << (wheels->local_map ? 1 : 0)
+          << "\nLocalMapping.MaxWheelSpan: " << real(wheels->max_wheel_span)
+          << "\nLocalMapping.SpinMinFrames: " << wheels->spin_min_frames
+          << "\nOdometry.Calibrate: " << (wheels->calibrate ? 1 : 0) << "\n";
+    }
     for (const auto& [key, value] : more) out << key << ": " << value << "\n";
   }
   if (!out.flush()) throw std::runtime_error("cannot write " + path);

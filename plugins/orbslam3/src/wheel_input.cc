@@ -46,12 +46,15 @@ void WheelInput::configure(const std::string& settings_path) {
     return;
   }
   WheelInputParams p;
-  p.T_b_c = readIsometry(s, "Camera.T_b_c", true);
+  p.wheels = s.text("Odometry.Input") != std::optional<std::string>("none");
+  p.T_b_c = readIsometry(s, "Camera.T_b_c", p.wheels);
   p.T_b_o = readIsometry(s, "Odometry.T_b_o", false);
-  const DiffDriveParams d = readDiffDrive(s);
-  p.radius_left = d.radius_left;
-  p.radius_right = d.radius_right;
-  p.track = d.track;
+  if (p.wheels) {
+    const DiffDriveParams d = readDiffDrive(s);
+    p.radius_left = d.radius_left;
+    p.radius_right = d.radius_right;
+    p.track = d.track;
+  }
   const std::string sensor = s.text("Sensor").value_or("stereo");
   p.map_from_depth = sensor != "mono";
   p.aligned_pyramid = s.number("ORBextractor.AlignedPyramid").value_or(1.0) != 0.0;
@@ -84,6 +87,7 @@ void WheelInput::configure(const std::string& settings_path) {
   p.calibrate_distance = s.number("Odometry.CalibrateDistance").value_or(p.map_from_depth ? 1.0 : 0.0) != 0.0;
   if (!(p.max_wheel_span > 0)) throw std::invalid_argument(settings_path + ": LocalMapping.MaxWheelSpan must be > 0 s");
   p.label_dilation_px = readLabelDilation(s, p.label_dilation_px);
+  if (!p.wheels) p.planar = p.local_map = p.essential_graph = p.calibrate = false;
   try {
     impl_ = std::make_unique<Impl>(p, readWheelNoise(s), readReliability(s), readSemanticPriors(s));
   } catch (const std::invalid_argument& e) {
@@ -102,10 +106,11 @@ bool WheelInput::active() const { return impl_ != nullptr; }
 bool WheelInput::alignedPyramid() const { return impl_ && impl_->params.aligned_pyramid; }
 
 void WheelInput::add(const std::vector<WheelReading>& readings) {
-  if (!impl_) {
+  if (!impl_ || !impl_->params.wheels) {
     if (readings.empty()) return;
-    throw std::invalid_argument(
-        "wheel readings given, but the settings have no Camera.T_b_c (RVWO's wheel input is off)");
+    throw std::invalid_argument(impl_ ? "wheel readings given, but the settings say Odometry.Input: \"none\""
+                                      : "wheel readings given, but the settings have no Camera.T_b_c (RVWO's wheel "
+                                        "input is off)");
   }
   std::lock_guard<std::mutex> lock(impl_->mutex);
   for (const WheelReading& r : readings) {
@@ -141,7 +146,7 @@ Eigen::Isometry3d WheelInput::predict(const Eigen::Isometry3d& T_ci_w, double ti
 }
 
 void WheelInput::frameTracked(double t, bool visual, int features) {
-  if (!impl_) return;
+  if (!impl_ || !impl_->params.wheels) return;
   Impl& m = *impl_;
   std::lock_guard<std::mutex> lock(m.mutex);
   const bool solved = m.solved.set && m.solved.t == t;
@@ -202,7 +207,7 @@ std::vector<std::pair<double, double>> WheelInput::wheelOnlyIntervals() const {
 
 double WheelInput::monocularScale(double t0, double t1, const Eigen::Isometry3d& T_c0_w,
                                   const Eigen::Isometry3d& T_c1_w) {
-  if (!impl_ || impl_->params.map_from_depth) return -1.0;
+  if (!impl_ || !impl_->params.wheels || impl_->params.map_from_depth) return -1.0;
   const double scale = impl_->monocularScale(t0, t1, T_c0_w, T_c1_w);
   impl_->metric = scale > 0;
   return scale;
@@ -240,7 +245,7 @@ double WheelInput::Impl::monocularScale(double t0, double t1, const Eigen::Isome
 }
 
 bool WheelInput::optimisesPoses() const {
-  return impl_ && impl_->params.planar && (impl_->params.map_from_depth || impl_->metric);
+  return impl_ && (!impl_->params.wheels || (impl_->params.planar && (impl_->params.map_from_depth || impl_->metric)));
 }
 
 // Trusted points: no label has called them dynamic and, with a segmenter, a label has reached them
@@ -277,6 +282,38 @@ std::vector<PoseObservation> WheelInput::Impl::poseObservations(const PoseProble
     o.usable = params.huber || trusted[k];
   }
   return obs;
+}
+
+bool WheelInput::Impl::spatialPose(const PoseProblem& pb, PoseSolution* out) {
+  // Trusted points place the pose; with too few of them (a keyframe's new points wait for their
+  // labels, and no wheels carry the frame meanwhile) every point the labels have not rejected
+  // does, each under its kernel.
+  std::vector<char> trusted = trustedOf(pb);
+  if (std::count(trusted.begin(), trusted.end(), 1) < params.tracking.min_inliers) trusted.assign(trusted.size(), 1);
+  // The matches as the planar solve takes them, but in ORB-SLAM3's own world (no body frame).
+  std::vector<PoseObservation> obs = poseObservations(pb, trusted);
+  for (std::size_t k = 0; k < obs.size(); ++k) obs[k].P_w = pb.matches[k].P_w;
+  SpatialPoseOptions o;
+  o.huber = params.huber;
+  Eigen::Isometry3d T_c_w = pb.T_c_w;
+  const SpatialPoseResult r = optimiseSpatialPose(PinholeCamera(pb.fx, pb.fy, pb.cx, pb.cy), pb.bf, obs, o, &T_c_w);
+  if (!params.huber) {
+    for (std::size_t k = 0; k < obs.size(); ++k) reliability.observe(pb.matches[k].id, std::nullopt, r.error[k]);
+  }
+  // ORB-SLAM3 keeps, counts and maps what fits the pose: every match within its gate that its
+  // labels have not rejected, whether or not it placed the pose (an untrusted one waits for its
+  // labels; marked an outlier it would be dropped, and tracking lost for want of inliers).
+  out->T_c_w = T_c_w;
+  out->outlier.resize(obs.size());
+  out->inliers = 0;
+  for (std::size_t k = 0; k < obs.size(); ++k) {
+    const bool fits = r.error[k] * r.error[k] <= chi2Gate(obs[k].stereo) &&
+                      (params.huber || obs[k].alpha != -BarronKernel::kInfinity);
+    out->outlier[k] = !fits;
+    out->inliers += fits;
+  }
+  out->slip = false;
+  return true;
 }
 
 // The wheel edge from the previous frame (eq. 14), when the readings cover both frames; after a
@@ -326,6 +363,7 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
   Impl& m = *impl_;
   std::lock_guard<std::mutex> lock(m.mutex);
   if (m.segmenter) m.applyLabels();
+  if (!m.params.wheels) return m.spatialPose(pb, out);
   m.makeEdges(pb);
   const std::size_t n = pb.matches.size();
   const FrameDecision d = m.arbiter.decide(m.frameEvidence(pb));

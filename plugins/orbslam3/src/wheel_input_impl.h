@@ -32,6 +32,7 @@
 #include "rvwo/settings/settings.h"
 #include "rvwo/tracking/frame_arbiter.h"
 #include "rvwo/tracking/planar_pose.h"
+#include "rvwo/tracking/spatial_pose.h"
 #include "rvwo/tracking/wheel_checks.h"
 #include "rvwo/tracking/window.h"
 
@@ -193,6 +194,8 @@ struct WheelInput::Impl {
   std::vector<PoseObservation> poseObservations(const PoseProblem& pb, const std::vector<char>& trusted) const;
   WheelPriorOfFrame wheelPriorOf(const PoseProblem& pb) const;
   FrameEvidence frameEvidence(const PoseProblem& pb) const;
+  // Without wheels: the frame in 6-DoF under the points' kernels, and their errors to eq. 6.
+  bool spatialPose(const PoseProblem& pb, PoseSolution* out);
   // ---- the local map (optimiseLocalMap)
   WindowProblem windowProblem(const LocalMapProblem& pb, std::vector<Span>* spans);
   WindowOptions windowOptions(const ceres_adapters::WheelCalibrationEstimate& cal, const bool* stop) const;

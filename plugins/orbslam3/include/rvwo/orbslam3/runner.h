@@ -39,11 +39,12 @@ struct OrbSlam3Features {
   double close_depth_baselines = 40;  // Stereo.ThDepth: points nearer are "close"
 };
 
-// Writes ORB-SLAM3 v1.0's settings (its older format, which v1.0 reads too). With wheels (RVWO's keys Camera.T_b_c,
-// Odometry.*, Tracking.*) the patched ORB-SLAM3 fuses the wheels and optimises poses on SE(2);
-// with nullptr it runs as upstream. `more`: further RVWO keys with their YAML values
-// (Odometry.Noise*, Reliability.*), written with the wheels' only. Throws std::runtime_error when
-// the file cannot be written.
+// Writes ORB-SLAM3 v1.0's settings (its older format, which v1.0 reads too). With wheels (RVWO's
+// keys Camera.T_b_c, Odometry.*, Tracking.*) the patched ORB-SLAM3 fuses the wheels and optimises
+// poses on SE(2); with wheels->wheels false (Odometry.Input: "none") it runs RVWO's labels and
+// kernels in its own 6-DoF tracking; with nullptr it runs as upstream. `more`: further RVWO keys
+// with their YAML values (Odometry.Noise*, Reliability.*), written with RVWO's only. Throws
+// std::runtime_error when the file cannot be written.
 void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor, const OrbSlam3Camera& camera,
                            const OrbSlam3Features& features, const WheelInputParams* wheels,
                            const std::vector<std::pair<std::string, std::string>>& more = {});

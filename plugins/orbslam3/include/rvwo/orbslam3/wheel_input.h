@@ -68,6 +68,11 @@ inline TrackingOptions orbslam3Tracking() {
 }
 
 struct WheelInputParams {
+  // false: no wheels [Odometry.Input: "none"]. RVWO's vision alone in ORB-SLAM3's 6-DoF tracking:
+  // optimisePose solves the frame in 6-DoF (rvwo/tracking/spatial_pose.h) with each map point's
+  // labels and adaptive kernel (eqs. 4 to 7); no reading is taken, nothing is planar, and local
+  // mapping, loop closing and keyframes stay ORB-SLAM3's own (the paper's Table I, TUM RGB-D).
+  bool wheels = true;
   Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();  // the (left) camera in the body frame [Camera.T_b_c]
   Eigen::Isometry3d T_b_o = Eigen::Isometry3d::Identity();  // odometry frame in the body frame [Odometry.T_b_o]
   double radius_left = 0.1, radius_right = 0.1;             // m [Odometry.WheelRadiusLeft/Right]
@@ -278,10 +283,12 @@ class WheelInput {
   // [first, last] frame time of each stretch on the wheels.
   std::vector<std::pair<double, double> > wheelOnlyIntervals() const;
 
-  // Whether optimisePose answers (active, planar, stereo or RGB-D, or mono in metres).
+  // Whether optimisePose answers (active, planar, stereo or RGB-D, or mono in metres; without
+  // wheels, any).
   bool optimisesPoses() const;
-  // The pose of a frame on SE(2): false (and nothing written) when optimisesPoses() is false or
-  // the problem has fewer than 3 matches, for ORB-SLAM3's own PoseOptimization to run instead.
+  // The pose of a frame on SE(2) (without wheels: in 6-DoF): false (and nothing written) when
+  // optimisesPoses() is false or the problem has fewer than 3 matches, for ORB-SLAM3's own
+  // PoseOptimization to run instead.
   bool optimisePose(const PoseProblem& problem, PoseSolution* solution);
   // Whether optimiseLocalMap answers (optimisesPoses() and LocalMapping.Planar).
   bool optimisesLocalMaps() const;
