@@ -300,20 +300,26 @@ bool WheelInput::Impl::spatialPose(const PoseProblem& pb, PoseSolution* out) {
   if (!params.huber) {
     for (std::size_t k = 0; k < obs.size(); ++k) reliability.observe(pb.matches[k].id, std::nullopt, r.error[k]);
   }
-  // ORB-SLAM3 keeps, counts and maps what fits the pose: every match within its gate that its
-  // labels have not rejected, whether or not it placed the pose (an untrusted one waits for its
-  // labels; marked an outlier it would be dropped, and tracking lost for want of inliers).
   out->T_c_w = T_c_w;
-  out->outlier.resize(obs.size());
-  out->inliers = 0;
-  for (std::size_t k = 0; k < obs.size(); ++k) {
-    const bool fits = r.error[k] * r.error[k] <= chi2Gate(obs[k].stereo) &&
-                      (params.huber || obs[k].alpha != -BarronKernel::kInfinity);
-    out->outlier[k] = !fits;
-    out->inliers += fits;
-  }
+  out->inliers = markFits(pb, r.error, out);
   out->slip = false;
   return true;
+}
+
+// ORB-SLAM3 keeps, counts and maps what fits the pose: every match within its gate that its
+// labels have not rejected, whether or not it placed the pose (an untrusted one waits for its
+// labels; marked an outlier it would be dropped, uncounted, and culled as never found).
+int WheelInput::Impl::markFits(const PoseProblem& pb, const std::vector<double>& error, PoseSolution* out) const {
+  const std::size_t n = pb.matches.size();
+  out->outlier.resize(n);
+  int fit = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const bool fits = error[k] * error[k] <= chi2Gate(pb.matches[k].u_right >= 0) &&
+                      (params.huber || reliability.alpha(pb.matches[k].id) != -BarronKernel::kInfinity);
+    out->outlier[k] = !fits;
+    fit += fits;
+  }
+  return fit;
 }
 
 // The wheel edge from the previous frame (eq. 14), when the readings cover both frames; after a
@@ -377,6 +383,10 @@ bool WheelInput::optimisePose(const PoseProblem& pb, PoseSolution* out) {
     for (std::size_t k = 0; k < n; ++k) m.reliability.observe(pb.matches[k].id, std::nullopt, d.result.error[k]);
   }
   out->T_c_w = m.cameraOf(d.x);
+  // Here every match that did not place the pose is an outlier to ORB-SLAM3, one awaiting its labels
+  // too. Flagged only where the gate rejects it (markFits), keyframes fell to upstream's count, but
+  // `slip` missed its slip in one run of nine: ORB-SLAM3's keyframe rule must first count trusted
+  // matches (patches/orbslam3/README.md).
   out->outlier.resize(n);
   for (std::size_t k = 0; k < n; ++k) out->outlier[k] = !d.result.inlier[k];
   out->inliers = d.result.inliers;

@@ -196,6 +196,9 @@ struct WheelInput::Impl {
   FrameEvidence frameEvidence(const PoseProblem& pb) const;
   // Without wheels: the frame in 6-DoF under the points' kernels, and their errors to eq. 6.
   bool spatialPose(const PoseProblem& pb, PoseSolution* out);
+  // The outlier flags ORB-SLAM3 gets: what the gate and the labels say of each match at the pose
+  // solved (errors: whitened, per match); returns how many fit.
+  int markFits(const PoseProblem& pb, const std::vector<double>& error, PoseSolution* out) const;
   // ---- the local map (optimiseLocalMap)
   WindowProblem windowProblem(const LocalMapProblem& pb, std::vector<Span>* spans);
   WindowOptions windowOptions(const ceres_adapters::WheelCalibrationEstimate& cal, const bool* stop) const;
