@@ -16,12 +16,15 @@
 
 #include "../common/temp.h"
 #include "orbslam3_common.h"
+#include "orbslam3_segmenters.h"
 #include "rvwo/edges/se2.h"
 #include "rvwo/kernels/semantic_priors.h"
 #include "rvwo/orbslam3/wheel_input.h"
 #include "rvwo/semantics/segmenter.h"
 
 namespace {
+
+using rvwo::test::HalfPerson;
 
 using rvwo::orbslam3::WheelInput;
 using rvwo::orbslam3::WheelInputParams;
@@ -623,7 +626,6 @@ TEST(WheelInputPose, WheelsThatCreepLoseToVisionWithinAFewFrames) {
 
 // ---- labels: keyframes to a segmenter, labels to the map points' reliabilities (eqs. 4, 5)
 
-// Labels a person (voc21's 15) on the left half of every image, background on the right.
 // Every pixel the background (class 0).
 class Background final : public rvwo::Segmenter {
  public:
@@ -669,23 +671,6 @@ TEST(WheelInputLabels, WithASegmenterOnlyLabelledPointsOverruleTheWheels) {
   EXPECT_TRUE(s.slip);
   EXPECT_LT((still.inverse() * robotOf(s.T_c_w, T_b_c, &off_plane)).translation().norm(), 0.002);
 }
-
-class HalfPerson final : public rvwo::Segmenter {
- public:
-  rvwo::Segmentation segment(const cv::Mat& image, const rvwo::FrameInfo&) override {
-    rvwo::Segmentation s;
-    s.labels = cv::Mat::zeros(image.rows, image.cols, CV_32S);
-    s.labels(cv::Rect(0, 0, image.cols / 2, image.rows)).setTo(person_);
-    ++calls;
-    return s;
-  }
-  const std::vector<std::string>& classNames() const override { return names_; }
-  int calls = 0;
-
- private:
-  std::vector<std::string> names_ = rvwo::SemanticPriors::builtin("voc21").classes();
-  int person_ = rvwo::SemanticPriors::builtin("voc21").labelOf("person");
-};
 
 // Keeps what each image it was given looked like: its channels and its first pixel.
 class Recorder final : public rvwo::Segmenter {

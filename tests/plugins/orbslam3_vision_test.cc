@@ -10,11 +10,14 @@
 #include <random>
 
 #include "../common/temp.h"
+#include "orbslam3_segmenters.h"
 #include "rvwo/kernels/semantic_priors.h"
 #include "rvwo/orbslam3/wheel_input.h"
 #include "rvwo/semantics/segmenter.h"
 
 namespace {
+
+using rvwo::test::HalfPerson;
 
 using rvwo::orbslam3::PoseMatch;
 using rvwo::orbslam3::PoseProblem;
@@ -106,22 +109,6 @@ TEST(WheelInputVision, OdometryInputNoneRunsVisionAloneForAnySensor) {
     EXPECT_FALSE(w.keyFrameWanted(false));
   }
 }
-
-// Labels a person (voc21's 15) on the left half of every image, background on the right.
-class HalfPerson final : public rvwo::Segmenter {
- public:
-  rvwo::Segmentation segment(const cv::Mat& image, const rvwo::FrameInfo&) override {
-    rvwo::Segmentation s;
-    s.labels = cv::Mat::zeros(image.rows, image.cols, CV_32S);
-    s.labels(cv::Rect(0, 0, image.cols / 2, image.rows)).setTo(person_);
-    return s;
-  }
-  const std::vector<std::string>& classNames() const override { return names_; }
-
- private:
-  std::vector<std::string> names_ = rvwo::SemanticPriors::builtin("voc21").classes();
-  int person_ = rvwo::SemanticPriors::builtin("voc21").labelOf("person");
-};
 
 // Through outliers, with no segmenter, and with one whose labels have not come yet (no point is
 // trusted): without wheels nothing else holds the frame, so then every point not rejected places
