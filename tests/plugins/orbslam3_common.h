@@ -25,6 +25,21 @@ struct Pose {
   Eigen::Vector3f t = Eigen::Vector3f::Zero();
 };
 
+// As ORB-SLAM3's GeometricCamera, as far as the plugin asks (rig.h): its model.
+struct Camera {
+  static const unsigned int CAM_PINHOLE = 0, CAM_FISHEYE = 1;
+  unsigned int type = CAM_PINHOLE;
+  unsigned int GetType() const { return type; }
+};
+inline Camera* pinholeCamera() {
+  static Camera c;
+  return &c;
+}
+inline Camera* fisheyeCamera() {
+  static Camera c{Camera::CAM_FISHEYE};
+  return &c;
+}
+
 // As ORB-SLAM3's Map, over a test's stand-ins for KeyFrame and MapPoint (its first keyframe: id 0).
 template <class KeyFrameT, class MapPointT>
 struct MapOf {

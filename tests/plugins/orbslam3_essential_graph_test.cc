@@ -41,6 +41,7 @@ struct KeyFrame {
   unsigned long mnId = 0;
   double mTimeStamp = 0;
   const void* mpCamera2 = nullptr;
+  rvwo::test::Camera* mpCamera = rvwo::test::pinholeCamera();
   Pose pose;
   KeyFrame* parent = nullptr;
   std::set<KeyFrame*> children, loops;
@@ -295,9 +296,12 @@ TEST(EssentialGraph, PointsMoveWithTheirReferenceKeyframe) {
 TEST(EssentialGraph, LeftToOrbSlam3WhenOffOrNotPlanar) {
   Circle off(Circle::kAll, 0, false), rig(Circle::kAll);
   rig.kfs[Circle::kCurrent]->mpCamera2 = &rig;  // two cameras: ORB-SLAM3's own
+  Circle fisheye(Circle::kAll);
+  fisheye.kfs[Circle::kCurrent]->mpCamera = rvwo::test::fisheyeCamera();  // distorted keypoints: its own too
   const Pose p = off.kfs[40]->pose;
   EXPECT_FALSE(off.close());
   EXPECT_FALSE(rig.close());
+  EXPECT_FALSE(fisheye.close());
   EXPECT_EQ((off.kfs[40]->pose.t - p.t).norm(), 0.0f);
   EXPECT_EQ(off.map.changes, 0);
   WheelInput none;  // no RVWO keys: upstream's

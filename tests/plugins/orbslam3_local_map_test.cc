@@ -40,6 +40,7 @@ struct KeyFrame {
   unsigned long mnId = 0, mnBALocalForKF = 0, mnBAFixedForKF = 0, mnBAGlobalForKF = 0;
   double mTimeStamp = 0;
   const void* mpCamera2 = nullptr;
+  rvwo::test::Camera* mpCamera = rvwo::test::pinholeCamera();
   float fx = 400, fy = 400, cx = 319.5f, cy = 239.5f, mbf = 48, mfScaleFactor = 1.2f;
   std::vector<cv::KeyPoint> mvKeysUn;
   std::vector<float> mvuRight;
@@ -525,6 +526,7 @@ struct Frame {
   double mTimeStamp = 0;
   float mbf = static_cast<float>(kBf), mfScaleFactor = 1.2f;
   const void* mpCamera2 = nullptr;
+  rvwo::test::Camera* mpCamera = rvwo::test::pinholeCamera();
   int N = 0;
   std::vector<cv::KeyPoint> mvKeysUn;
   std::vector<float> mvuRight;
@@ -693,6 +695,36 @@ struct Blackout {
         std::count_if(frame.mvpMapPoints.begin(), frame.mvpMapPoints.end(), [](MapPoint* mp) { return mp; }));
   }
 };
+
+// A single fisheye camera (KannalaBrandt8) keeps its keypoints distorted, which the plugin's
+// pinhole solve cannot read: ORB-SLAM3's own optimisation places such a frame.
+TEST(OptimisePose, LeavesAFisheyeFrameToOrbSlam3) {
+  rvwo::orbslam3::WheelInput wheels;
+  wheels.configure(rvwo::orbslam3::WheelInputParams());
+  ASSERT_TRUE(wheels.optimisesPoses());
+  static int calls = 0;
+  auto upstream = [](Frame*) { return ++calls, 77; };
+  // Five matches in front of it: enough for the plugin to answer, were the camera a pinhole.
+  std::vector<MapPoint> points(5);
+  Frame frame, last;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    points[k].mnId = k;
+    points[k].P = Eigen::Vector3f(0.3f * k - 0.6f, 0.1f * k, 3.0f);
+    cv::KeyPoint kp;
+    kp.pt = cv::Point2f(300.f + 40.f * k, 250.f);
+    frame.mvKeysUn.push_back(kp);
+    frame.mvuRight.push_back(kp.pt.x - 16.f);
+    frame.mvpMapPoints.push_back(&points[k]);
+  }
+  frame.N = 5;
+  frame.mvbOutlier.assign(5, false);
+  frame.mpCamera = rvwo::test::fisheyeCamera();
+  EXPECT_EQ(rvwo::orbslam3::optimisePose(wheels, frame, last, +upstream), 77);
+  EXPECT_EQ(calls, 1);
+  frame.mpCamera = rvwo::test::pinholeCamera();  // the same frame from a pinhole: the plugin's
+  EXPECT_NE(rvwo::orbslam3::optimisePose(wheels, frame, last, +upstream), 77);
+  EXPECT_EQ(calls, 1);
+}
 
 TEST(Reacquire, FindsTheOldMapFromTheWheelsPoseAndDropsWrongMatches) {
   Blackout b;

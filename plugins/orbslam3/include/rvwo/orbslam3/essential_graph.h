@@ -28,6 +28,7 @@
 #include <utility>
 #include <vector>
 
+#include "rvwo/orbslam3/rig.h"
 #include "rvwo/orbslam3/se3.h"
 #include "rvwo/orbslam3/wheel_input.h"
 
@@ -53,7 +54,7 @@ bool optimiseEssentialGraph(WheelInput& wheels, MapT* map, KeyFrameT* loop_kf, K
                             const ConnectionsT& loop_connections) {
   typedef typename std::remove_pointer<typename std::decay<decltype(map->GetAllMapPoints()[0])>::type>::type MapPointT;
   typedef typename std::decay<decltype(current_kf->GetPose())>::type PoseT;
-  if (!wheels.optimisesEssentialGraphs() || current_kf->mpCamera2) return false;
+  if (!wheels.optimisesEssentialGraphs() || !onePinhole(*current_kf)) return false;
   const int kMinShared = 100;  // ORB-SLAM3's covisibility bar for an edge of the essential graph
 
   std::vector<KeyFrameT*> keyframes;

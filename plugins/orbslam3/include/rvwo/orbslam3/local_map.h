@@ -16,7 +16,7 @@
 // KeyFrame and Map so that no ORB-SLAM3 header is needed here (nor Sophus: poses are read through
 // rotationMatrix() and translation(), and made from a quaternion and a translation, as
 // Sophus::SE3f is). Both return false, having done nothing, for ORB-SLAM3's own to run instead: a
-// monocular map not in metres (WheelInput::monocularScale), a two-camera (fisheye) rig, RVWO's
+// monocular map not in metres (WheelInput::monocularScale), a camera other than one pinhole (rig.h), RVWO's
 // keys absent or LocalMapping.Planar 0.
 #pragma once
 
@@ -28,6 +28,7 @@
 #include <utility>
 #include <vector>
 
+#include "rvwo/orbslam3/rig.h"
 #include "rvwo/orbslam3/se3.h"
 #include "rvwo/orbslam3/wheel_input.h"
 
@@ -77,7 +78,7 @@ void makeProblem(const std::vector<KeyFrameT*>& keyframes, std::size_t n_free, u
 
 template <class KeyFrameT, class MapT>
 bool optimiseLocalMap(WheelInput& wheels, KeyFrameT* keyframe, bool* stop, MapT* map) {
-  if (!wheels.optimisesLocalMaps() || keyframe->mpCamera2) return false;
+  if (!wheels.optimisesLocalMaps() || !onePinhole(*keyframe)) return false;
   typedef typename std::remove_pointer<typename std::decay<decltype(keyframe->GetMapPointMatches()[0])>::type>::type
       MapPointT;
   typedef typename std::decay<decltype(keyframe->GetPose())>::type PoseT;
@@ -158,7 +159,7 @@ bool optimiseGlobalMap(WheelInput& wheels, MapT* map, bool* stop, unsigned long 
   const std::vector<KeyFrameT*> all = map->GetAllKeyFrames();
   for (std::size_t k = 0; k < all.size(); ++k)
     if (!all[k]->isBad()) keyframes.push_back(all[k]);
-  if (keyframes.empty() || keyframes.front()->mpCamera2) return false;
+  if (keyframes.empty() || !onePinhole(*keyframes.front())) return false;
   std::vector<MapPointT*> points;
   const std::vector<MapPointT*> all_points = map->GetAllMapPoints();
   for (std::size_t i = 0; i < all_points.size(); ++i)

@@ -5,8 +5,8 @@
 // (mvpMapPoints), writes its pose and mvbOutlier, and returns the inliers. Included by the
 // patched Tracking.cc (C++11); templated on ORB-SLAM3's Frame so that no ORB-SLAM3 header is
 // needed here (nor Sophus: se3.h). Falls back to `upstream` (Optimizer::PoseOptimization) for
-// a monocular map not in metres (WheelInput::monocularScale), a two-camera (fisheye) rig, or
-// fewer than 3 matches.
+// a monocular map not in metres (WheelInput::monocularScale), a camera other than one pinhole
+// (rig.h), or fewer than 3 matches.
 #pragma once
 
 #include <cstddef>
@@ -14,6 +14,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "rvwo/orbslam3/rig.h"
 #include "rvwo/orbslam3/se3.h"
 #include "rvwo/orbslam3/wheel_input.h"
 
@@ -22,7 +23,7 @@ namespace orbslam3 {
 
 template <class FrameT>
 int optimisePose(WheelInput& wheels, FrameT& frame, const FrameT& last, int (*upstream)(FrameT*)) {
-  if (!wheels.optimisesPoses() || frame.mpCamera2) return upstream(&frame);
+  if (!wheels.optimisesPoses() || !onePinhole(frame)) return upstream(&frame);
   PoseProblem p;
   p.t = frame.mTimeStamp;
   p.T_c_w = isometryOf(frame.GetPose());
