@@ -32,7 +32,11 @@ OrbSlam3Backend::OrbSlam3Backend(const estimator::Rig& rig, const estimator::Est
                                  const std::shared_ptr<Segmenter>& segmenter)
     : T_b_c_(rig.T_b_c) {
   using Sensor = orbslam3::RunnerOptions::Sensor;
-  if (rig.rectification) throw std::invalid_argument("--backend orbslam3 takes pinhole cameras (not fisheye)");
+  const bool distorted = rig.radtan != std::array<double, 5>{};
+  if (rig.rectification && (!distorted || rig.sensor == estimator::Sensor::kStereo))
+    throw std::invalid_argument(
+        "--backend orbslam3 takes a pinhole camera (mono or RGB-D, distorted or not) or a rectified pinhole stereo "
+        "pair, not a fisheye pair");
   orbslam3::RunnerOptions o;
   o.sensor = rig.sensor == estimator::Sensor::kStereo ? Sensor::kStereo
              : rig.sensor == estimator::Sensor::kRgbd ? Sensor::kRgbd
@@ -49,6 +53,7 @@ OrbSlam3Backend::OrbSlam3Backend(const estimator::Rig& rig, const estimator::Est
   c.height = rig.height;
   c.fps = rig.fps;
   c.baseline = rig.baseline;
+  c.radtan = rig.radtan;  // the images go to ORB-SLAM3 as the camera gave them
   orbslam3::OrbSlam3Features f;
   f.features = opt.features;
   f.scale_factor = opt.scale_factor;

@@ -356,6 +356,8 @@ TEST(Options, DistortedPinholeIsUndistortedOnInput) {
   const Rig rig = readRig(rvwo::Settings::fromString(y, "s.yaml"));
   ASSERT_TRUE(rig.rectification);
   EXPECT_DOUBLE_EQ(rig.camera->fx(), 400);
+  // The coefficients kept, for a host that undistorts keypoints itself (ORB-SLAM3's settings).
+  EXPECT_EQ(rig.radtan, (std::array<double, 5>{0.2624, -0.9531, -0.0054, 0.0026, 1.1633}));
   const cv::Mat K = (cv::Mat_<double>(3, 3) << 400, 0, 319.5, 0, 400, 239.5, 0, 0, 1);
   const cv::Mat D = (cv::Mat_<double>(5, 1) << 0.2624, -0.9531, -0.0054, 0.0026, 1.1633);
   for (const cv::Point3d P :
@@ -444,6 +446,7 @@ TEST(Options, FisheyeStereoIsRectifiedOnInput) {
   rig.T_b_c.translation() << 0.25, 0, 0.4;
   rectifyFisheyeStereo(left, right, T_c1_c2, &rig);
   ASSERT_TRUE(rig.rectification);
+  EXPECT_EQ(rig.radtan, (std::array<double, 5>{}));  // no radial-tangential model: ORB-SLAM3 refuses the pair
   ASSERT_EQ(rig.camera->kind(), rvwo::CameraModel::Kind::kPinhole);
   EXPECT_NEAR(rig.baseline, T_c1_c2.translation().norm(), 1e-9);
   EXPECT_NEAR(rig.T_b_c.translation().x(), 0.25, 1e-12);  // rectification turns the camera, never moves it

@@ -39,6 +39,7 @@ void undistortPinhole(const std::array<double, 5>& d, Rig* rig) {
   cv::initUndistortRectifyMap(K, cv::Mat_<double>({5, 1}, {d[0], d[1], d[2], d[3], d[4]}), cv::Mat(), K,
                               cv::Size(rig->width, rig->height), CV_32FC1, r->left_x, r->left_y);
   rig->rectification = r;
+  rig->radtan = d;
 }
 
 void rectifyFisheyeStereo(const KannalaBrandtCamera& left, const KannalaBrandtCamera& right,

@@ -69,7 +69,9 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
   out << "Camera.type: \"PinHole\"\n";
   out << "Camera.fx: " << real(c.fx) << "\nCamera.fy: " << real(c.fy) << "\nCamera.cx: " << real(c.cx)
       << "\nCamera.cy: " << real(c.cy) << "\n";
-  out << "Camera.k1: 0.0\nCamera.k2: 0.0\nCamera.p1: 0.0\nCamera.p2: 0.0\n";  // rectified images
+  // ORB-SLAM3 undistorts the keypoints of a mono or RGB-D camera itself; stereo images come rectified.
+  const char* radtan_keys[5] = {"k1", "k2", "p1", "p2", "k3"};
+  for (int i = 0; i < 5; ++i) out << "Camera." << radtan_keys[i] << ": " << real(c.radtan[i]) << "\n";
   out << "Camera.width: " << c.width << "\nCamera.height: " << c.height << "\nCamera.fps: " << int(std::lround(c.fps))
       << "\nCamera.RGB: 0\n";
   if (sensor != RunnerOptions::Sensor::kMono)

@@ -52,6 +52,8 @@ struct Rig {
   Sensor sensor = Sensor::kStereo;
   std::shared_ptr<const CameraModel> camera;                 // pinhole for stereo and RGB-D (rectified)
   std::shared_ptr<const StereoRectification> rectification;  // fisheye stereo, radial-tangential: raw to pinhole
+  std::array<double, 5> radtan{};                            // the raw camera's k1, k2, p1, p2, k3 that
+                                                             // rectification undoes (0: none)
   int width = 640, height = 480;                             // px
   double fps = 30;                                           // Hz
   double baseline = 0.12;                                    // m (RGB-D: virtual, for the u_R coordinate)
@@ -67,7 +69,8 @@ struct Rig {
 void rectifyFisheyeStereo(const KannalaBrandtCamera& left, const KannalaBrandtCamera& right,
                           const Eigen::Isometry3d& T_c1_c2, Rig* rig);
 // One pinhole camera with radial-tangential distortion (OpenCV's k1, k2, p1, p2, k3), images
-// rig.width x rig.height: sets rig.rectification to undistort it onto rig.camera's intrinsics.
+// rig.width x rig.height: sets rig.rectification to undistort it onto rig.camera's intrinsics, and
+// rig.radtan.
 void undistortPinhole(const std::array<double, 5>& k1_k2_p1_p2_k3, Rig* rig);
 
 struct EstimatorOptions {

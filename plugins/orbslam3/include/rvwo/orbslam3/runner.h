@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <array>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
@@ -30,6 +31,7 @@ struct OrbSlam3Camera {
   int width = 0, height = 0;              // px
   double fps = 30;                        // Hz
   double baseline = 0;                    // m (RGB-D: virtual, for ORB-SLAM3's stereo coordinate)
+  std::array<double, 5> radtan{};         // k1, k2, p1, p2, k3 of the images (mono, RGB-D; 0: undistorted)
 };
 struct OrbSlam3Features {
   int features = 1200;  // per image (upstream's examples: 1000-1250)
