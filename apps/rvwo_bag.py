@@ -330,7 +330,8 @@ class Conversion:
         lines = ["%YAML:1.0", f"# written by rvwo-bag from {Path(self.args.input).name}"]
         sensor = "stereo" if "right" in roles else "rgbd" if "depth" in roles else "mono"
         lines.append(f'Sensor: "{sensor}"')
-        info = self.camera_info("left", roles["left"])
+        # With a preset, its camera (use_preset_camera), whatever the bag's camera_info says.
+        info = None if self.args.preset else self.camera_info("left", roles["left"])
         if info is not None:
             k = list(getattr(info, "k", None) if hasattr(info, "k") else info.K)
             fisheye, d = distortion_of(info, roles["left"])
@@ -356,10 +357,10 @@ class Conversion:
         if "depth" in roles:
             lines.append("RGBD.DepthMapFactor: 1000.0  # the depth images are written in millimetres")
         T = self.base_to_camera(transforms, self.frame_of.get("left", ""))
-        if T is None:
+        if T is None and not self.args.preset:  # (a preset has one: use_preset_camera)
             self.still.append(f"Camera.T_b_c (no transform from {self.args.base_frame} to the camera's frame "
                               f"'{self.frame_of.get('left', '')}' in /tf_static or /tf; --base-frame names the base)")
-        else:
+        elif T is not None:
             data = ", ".join(repr(float(v)) for v in T.reshape(-1))
             lines += ["Camera.T_b_c: !!opencv-matrix", "   rows: 4", "   cols: 4", "   dt: d", f"   data: [{data}]"]
         if "odometry" in roles:
@@ -386,12 +387,10 @@ class Conversion:
         camera = [line for line in preset if line.startswith(CAMERA_KEYS)]
         if not camera:
             raise BagError(f"{settings}: rvwo-convert wrote no camera for --preset {self.args.preset}")
-        self.still = [s for s in self.still if "intrinsics" not in s]  # the preset gives them
-        rest = [line for line in self.lines if not line.startswith(CAMERA_KEYS)]
+        rest = [line for line in self.lines if not line.startswith(CAMERA_KEYS)]  # the bag's fps, say
         if not any(line.startswith("Camera.T_b_c:") for line in rest):  # the preset's: the base at the camera
             at = next(i for i, line in enumerate(preset) if line.startswith("Camera.T_b_c:"))
             camera += preset[at:at + 5]  # the key, rows, cols, dt, data
-            self.still = [s for s in self.still if not s.startswith("Camera.T_b_c")]
             if any(line.startswith("Odometry.Input:") for line in rest):
                 self.still.append("Camera.T_b_c: the Kinect on the robot's base (TUM published none; the settings "
                                   "put the base at the camera, x forward, which --mode vw needs measured)")

@@ -92,10 +92,10 @@ void writeOrbSlam3Settings(const std::string& path, RunnerOptions::Sensor sensor
       out << "Odometry.WheelRadiusLeft: " << real(wheels->radius_left)
           << "\nOdometry.WheelRadiusRight: " << real(wheels->radius_right)
           << "\nOdometry.Track: " << real(wheels->track) << "\n";
+      out << "Tracking.Planar: " << (wheels->planar ? 1 : 0) << "\n";
     } else {
       out << "Odometry.Input: \"none\"  # RVWO's vision alone: labels and adaptive kernels in 6-DoF tracking\n";
     }
-    if (wheels->wheels) out << "Tracking.Planar: " << (wheels->planar ? 1 : 0) << "\n";
     out << "Tracking.Kernel: \"" << (wheels->huber ? "huber" : "adaptive") << "\"\n";
     writeTrackingOptions(out, wheels->tracking);
     if (wheels->wheels) {
